@@ -1,0 +1,279 @@
+"""`ClutterRetrieve-v0`: HERB retrieves a goal object from clutter, seeing only noisy detections.
+
+The env composes the pieces and owns none of their logic: a `Simulator` (pybullet world), `Herb`
+(robot and its controllers), a `Scene` (what is where), a controller (how actions move the arm)
+and a `RetrievalTask` (success, failure, reward). See the README for the spaces.
+
+Observation (a Dict of fixed-shape arrays; M = `max_objects`):
+- arm_joints (7,), arm_velocities (7,): right arm state [rad, rad/s]
+- hand (4,): spread and F1, F2, F3 proximal angles [rad]
+- tcp_pose (7,): position [m] and quaternion (x, y, z, w) of the hand's TCP
+- object_poses (M, 3): DETECTED planar poses (x, y, theta): truth + Gaussian noise, redrawn each step
+- object_sizes (M, 3): footprint extents along the object's x and y, and height [m]
+- object_kinds (M,): 1 + index into `clutter_gym.env.OBJECT_KINDS` (the object library's order); 0 for an empty slot
+- object_mask (M,): 1 where a slot holds an object
+- goal_object (): slot of the goal object
+- goal_region (4,): x_min, x_max, y_min, y_max [m]
+- noise (2,): sigma_xy [m], sigma_theta [rad] of the detections
+- surface (): 0 table, 1 shelf
+True poses are only in `info["true_object_poses"]`, for evaluation.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from clutter_gym.controllers import EndEffectorDeltaController, TrajectoryController
+from clutter_gym.objects import OBJECTS, Footprint, get_object
+from clutter_gym.perception import detect, resolve_noise
+from clutter_gym.robot import herb_model as hm
+from clutter_gym.robot.herb import HandCommand, Herb
+from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.scene import LEVELS, MAX_OBJECTS, Scene, generate_scene, load_scene
+from clutter_gym.sim import Camera, Simulator
+from clutter_gym.task import REWARD_TYPES, RetrievalTask, RewardType
+from clutter_gym.world import SURFACES, get_surface
+
+OBJECT_KINDS = tuple(OBJECTS)
+ControlMode = Literal["trajectory", "ee_delta"]
+CONTROL_MODES: tuple[ControlMode, ...] = ("trajectory", "ee_delta")
+DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
+SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on the surface
+MONITOR_EVERY = 8  # physics steps between task checks while a trajectory executes
+
+
+class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        control_mode: ControlMode = "trajectory",
+        waypoints: int = 16,
+        level: str | None = None,
+        surface: str = "table",
+        noise: str | tuple[float, float] | None = None,
+        reward_type: RewardType = "sparse",
+        max_hand_speed: float = 0.05,
+        step_limit: int | None = None,
+        camera: Camera | None = None,
+    ) -> None:
+        _check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
+        _check_choice("control_mode", control_mode, CONTROL_MODES)
+        _check_choice("level", level, (None, *LEVELS))
+        _check_choice("surface", surface, tuple(SURFACES))
+        _check_choice("reward_type", reward_type, REWARD_TYPES)
+        self.render_mode = render_mode
+        self.control_mode = control_mode
+        self.level = level
+        self.surface_name = surface
+        self.noise_override = None if noise is None else resolve_noise(noise)
+        self.reward_type: RewardType = reward_type
+        self.step_limit = DEFAULT_STEP_LIMITS[control_mode] if step_limit is None else int(step_limit)
+        if self.step_limit < 1:
+            raise ValueError(f"step_limit: {step_limit}; must be an integer >= 1")
+        self.camera = camera or Camera()
+
+        self.sim = Simulator()
+        self.kinematics = ArmKinematics("right")
+        self._waypoints = waypoints
+        self._max_hand_speed = max_hand_speed
+        self._build_world(generate_scene("none", seed=0, surface=surface))
+        self.action_space = self._controller.action_space
+        self.observation_space = _observation_space(MAX_OBJECTS)
+
+        self._steps = 0
+        self._sim_steps = 0
+        self._ended = False
+        self._recording_every = 0
+        self._frames: list[np.ndarray] = []
+
+    # --- gymnasium API ----------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = set(options) - {"scene", "level"}
+        if unknown:
+            raise ValueError(f"options: unknown keys {sorted(unknown)}; allowed: 'scene', 'level'")
+        if isinstance(options.get("scene"), Scene):
+            scene = options["scene"]
+        elif options.get("scene") is not None:
+            scene = load_scene(options["scene"])
+        else:
+            level = options.get("level", self.level)
+            _check_choice("options['level']", level, (None, *LEVELS))
+            if level is None:
+                level = LEVELS[int(self.np_random.integers(len(LEVELS)))]
+            scene = generate_scene(
+                level, seed=int(self.np_random.integers(2**31)), surface=self.surface_name
+            )
+        self._build_world(scene)
+        self._steps = 0
+        self._ended = False
+        return self._observation(), self._info(clipped=False)
+
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self._ended:
+            raise RuntimeError("step() after the episode ended: call reset() first")
+        clipped = self._controller.execute(action, self._substep)
+        self._steps += 1
+        outcome = self._task.evaluate()
+        reward = self._task.reward(outcome, self.reward_type)
+        terminated = bool(outcome.done)
+        truncated = bool(not terminated and self._steps >= self.step_limit)
+        self._ended = terminated or truncated
+        return self._observation(), float(reward), terminated, truncated, self._info(clipped)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        return self.sim.render(self.camera)
+
+    def close(self) -> None:
+        self.sim.close()
+
+    # --- recording (for GIFs of whole-trajectory steps) -----------------------------------------
+    def start_recording(self, every_sim_steps: int = 24) -> None:
+        """Collect a frame every `every_sim_steps` physics steps while actions execute."""
+        self._recording_every = max(1, int(every_sim_steps))
+        self._frames = [self.sim.render(self.camera)]
+
+    def stop_recording(self) -> list[np.ndarray]:
+        frames, self._frames, self._recording_every = self._frames, [], 0
+        return frames
+
+    # --- internals ----------------------------------------------------------------------------
+    @property
+    def scene(self) -> Scene:
+        return self._scene
+
+    def _build_world(self, scene: Scene) -> None:
+        self.sim.clear()
+        self._scene = scene
+        self._surface = get_surface(scene.surface)
+        self.sim.add_static_boxes("surface", self._surface.boxes)
+        self.herb = Herb(self.sim)
+        self._specs = {o.name: get_object(o.kind) for o in scene.objects}
+        for placement in scene.objects:
+            self.sim.add_object(placement.name, self._specs[placement.name], placement.pose,
+                                self._surface.top_z)
+        self.herb.reset(np.asarray(hm.RIGHT_ARM_HOME), HandCommand())
+        self.sim.step(SETTLE_STEPS)
+        self._sim_steps = 0
+        self._sigma = self.noise_override or resolve_noise(scene.noise)
+        self._task = RetrievalTask(self.sim, self.herb, scene, self._surface, self._specs)
+        if self.control_mode == "trajectory":
+            traj = TrajectoryController(self.herb, self.kinematics, self._waypoints,
+                                        self._max_hand_speed, self.sim.timestep)
+            traj.reset(HandCommand())
+            self._controller: TrajectoryController | EndEffectorDeltaController = traj
+        else:
+            ee = EndEffectorDeltaController(self.herb, self.kinematics, lambda: self.np_random)
+            ee.reset(np.asarray(hm.RIGHT_ARM_HOME))
+            self._controller = ee
+
+    def _substep(self) -> bool:
+        self.sim.step()
+        self._sim_steps += 1
+        if self._recording_every and self._sim_steps % self._recording_every == 0:
+            self._frames.append(self.sim.render(self.camera))
+        if self._sim_steps % MONITOR_EVERY:
+            return False
+        return self._task.evaluate().done
+
+    def _true_poses(self) -> np.ndarray:
+        poses = np.zeros((len(self._scene.objects), 3))
+        for i, placement in enumerate(self._scene.objects):
+            pos, quat = self.sim.base_pose(placement.name)
+            x, y, z, w = quat
+            poses[i] = pos[0], pos[1], np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return poses
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        m = MAX_OBJECTS
+        n = len(self._scene.objects)
+        q, dq = self.herb.arm_state()
+        tcp_pos, tcp_quat = self.herb.tcp_pose()
+        poses = np.zeros((m, 3), dtype=np.float32)
+        poses[:n] = detect(self._true_poses(), self._sigma, self.np_random)
+        sizes = np.zeros((m, 3), dtype=np.float32)
+        kinds = np.zeros(m, dtype=np.int64)
+        mask = np.zeros(m, dtype=np.int8)
+        names = [o.name for o in self._scene.objects]
+        for i, placement in enumerate(self._scene.objects):
+            spec = self._specs[placement.name]
+            sizes[i] = (*_extents(spec.footprint), spec.height)
+            kinds[i] = 1 + OBJECT_KINDS.index(placement.kind)
+            mask[i] = 1
+        (x_lo, x_hi), (y_lo, y_hi) = self._scene.goal.region
+        return {
+            "arm_joints": q.astype(np.float32),
+            "arm_velocities": np.clip(dq, -10.0, 10.0).astype(np.float32),
+            "hand": self.herb.hand_state().astype(np.float32),
+            "tcp_pose": np.r_[tcp_pos, tcp_quat].astype(np.float32),
+            "object_poses": poses,
+            "object_sizes": sizes,
+            "object_kinds": kinds,
+            "object_mask": mask,
+            "goal_object": np.int64(names.index(self._scene.goal.object)),
+            "goal_region": np.array([x_lo, x_hi, y_lo, y_hi], dtype=np.float32),
+            "noise": np.array(self._sigma, dtype=np.float32),
+            "surface": np.int64(list(SURFACES).index(self._scene.surface)),
+        }
+
+    def _info(self, clipped: bool) -> dict[str, Any]:
+        outcome = self._task.evaluate()
+        true_poses = np.zeros((MAX_OBJECTS, 3))
+        true_poses[: len(self._scene.objects)] = self._true_poses()
+        return {
+            "is_success": bool(outcome.success),
+            "failure": outcome.failure,
+            "goal_held": bool(outcome.goal_held),
+            "goal_lift": float(outcome.goal_lift),
+            "true_object_poses": true_poses,
+            "object_names": tuple(o.name for o in self._scene.objects),
+            "sim_steps": int(self._sim_steps),
+            "action_clipped": bool(clipped),
+        }
+
+
+def _observation_space(m: int) -> spaces.Dict:
+    inf = np.inf
+    n_kinds = len(OBJECT_KINDS)
+    return spaces.Dict(
+        {
+            "arm_joints": spaces.Box(-2 * np.pi, 2 * np.pi, (7,), np.float32),
+            "arm_velocities": spaces.Box(-10.0, 10.0, (7,), np.float32),
+            "hand": spaces.Box(-0.5, 3.5, (4,), np.float32),
+            "tcp_pose": spaces.Box(-inf, inf, (7,), np.float32),
+            "object_poses": spaces.Box(-inf, inf, (m, 3), np.float32),
+            "object_sizes": spaces.Box(0.0, inf, (m, 3), np.float32),
+            "object_kinds": spaces.MultiDiscrete([n_kinds + 1] * m),
+            "object_mask": spaces.MultiBinary(m),
+            "goal_object": spaces.Discrete(m),
+            "goal_region": spaces.Box(-inf, inf, (4,), np.float32),
+            "noise": spaces.Box(0.0, inf, (2,), np.float32),
+            "surface": spaces.Discrete(len(SURFACES)),
+        }
+    )
+
+
+def _check_choice(field: str, value: object, allowed: tuple[object, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"{field}: {value!r} is not allowed; choose one of {list(allowed)}")
+
+
+
+def _extents(footprint: Footprint) -> tuple[float, float]:
+    """Footprint size along the object's own x and y axes."""
+    if footprint.shape == "circle":
+        return 2.0 * footprint.radius, 2.0 * footprint.radius
+    return 2.0 * footprint.half_extents[0], 2.0 * footprint.half_extents[1]

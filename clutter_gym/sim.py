@@ -1,0 +1,198 @@
+"""A thin pybullet wrapper: one physics client per env, bodies addressed by name.
+
+Why a wrapper: pybullet's API is global-state flavoured and integer-addressed. Every env owns one
+`BulletClient` (never the module-level client), so several envs can live in one process, and the
+rest of the code speaks about bodies by name ("herb", "table", "soda_can_0").
+
+The world is rebuilt with `resetSimulation` on every episode: it frees collision shapes (unlike
+`removeBody`, which leaks them) and makes an episode independent of the episodes before it, which
+is what bit-identical rollouts need.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+from clutter_gym.objects import ObjectSpec
+from clutter_gym.world import Box
+
+TIMESTEP = 1.0 / 240.0
+GRAVITY = -9.81
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera at `eye` looking at `target`; the default sees HERB and the workspace."""
+
+    eye: tuple[float, float, float] = (1.75, 0.55, 1.45)
+    target: tuple[float, float, float] = (0.55, -0.25, 0.85)
+    width: int = 480
+    height: int = 360
+    fov: float = 50.0
+
+
+class Simulator:
+    """One pybullet world: builds bodies by name, steps, renders, answers contact queries."""
+
+    def __init__(self, timestep: float = TIMESTEP, solver_iterations: int = 50) -> None:
+        self._client: BulletClient | None = BulletClient(connection_mode=pybullet.DIRECT)
+        self.timestep = timestep
+        self.solver_iterations = solver_iterations
+        self._bodies: dict[str, int] = {}
+        self.clear()
+
+    @property
+    def client(self) -> BulletClient:
+        if self._client is None:
+            raise RuntimeError("the simulator is closed")
+        return self._client
+
+    def clear(self) -> None:
+        """Empty the world and reset every physics parameter."""
+        c = self.client
+        c.resetSimulation()
+        c.setPhysicsEngineParameter(
+            fixedTimeStep=self.timestep,
+            numSolverIterations=self.solver_iterations,
+            deterministicOverlappingPairs=1,
+        )
+        c.setGravity(0.0, 0.0, GRAVITY)
+        self._bodies = {}
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.disconnect()
+            self._client = None
+
+    # --- bodies -----------------------------------------------------------------------------
+    def body(self, name: str) -> int:
+        try:
+            return self._bodies[name]
+        except KeyError:
+            raise KeyError(f"no body named {name!r}; bodies: {sorted(self._bodies)}") from None
+
+    @property
+    def body_names(self) -> list[str]:
+        return list(self._bodies)
+
+    def load_urdf(self, name: str, path: Path, fixed_base: bool = True) -> int:
+        body_id = self.client.loadURDF(
+            str(path),
+            useFixedBase=fixed_base,
+            flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+        )
+        self._bodies[name] = body_id
+        return body_id
+
+    def add_static_boxes(self, name: str, boxes: Sequence[Box]) -> int:
+        """One static multi-body made of axis-aligned boxes (a table, a shelf)."""
+        c = self.client
+        half = [list(b.half_extents) for b in boxes]
+        centres = [list(b.centre) for b in boxes]
+        col = c.createCollisionShapeArray(
+            shapeTypes=[pybullet.GEOM_BOX] * len(boxes),
+            halfExtents=half,
+            collisionFramePositions=centres,
+        )
+        vis = c.createVisualShapeArray(
+            shapeTypes=[pybullet.GEOM_BOX] * len(boxes),
+            halfExtents=half,
+            visualFramePositions=centres,
+            rgbaColors=[list(b.rgba) for b in boxes],
+        )
+        body_id = c.createMultiBody(0.0, col, vis, [0.0, 0.0, 0.0])
+        self._bodies[name] = body_id
+        return body_id
+
+    def add_object(self, name: str, spec: ObjectSpec, pose: Sequence[float], surface_z: float) -> int:
+        """A movable object standing upright at planar pose (x, y, theta) on a surface."""
+        c = self.client
+        prims = spec.primitives
+        frames = [[0.0, 0.0, p.z] for p in prims]
+        col = c.createCollisionShapeArray(
+            shapeTypes=[_shape_type(p.shape) for p in prims],
+            halfExtents=[_half_extents(p.shape, p.size) for p in prims],
+            radii=[p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
+            lengths=[p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
+            collisionFramePositions=frames,
+        )
+        vis = c.createVisualShapeArray(
+            shapeTypes=[_shape_type(p.shape) for p in prims],
+            halfExtents=[_half_extents(p.shape, p.size) for p in prims],
+            radii=[p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
+            lengths=[p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
+            visualFramePositions=frames,
+            rgbaColors=[list(spec.rgba)] * len(prims),
+        )
+        x, y, theta = (float(v) for v in pose)
+        body_id = c.createMultiBody(
+            baseMass=spec.mass,
+            baseCollisionShapeIndex=col,
+            baseVisualShapeIndex=vis,
+            basePosition=[x, y, surface_z],
+            baseOrientation=c.getQuaternionFromEuler([0.0, 0.0, theta]),
+            baseInertialFramePosition=[0.0, 0.0, spec.com_height],
+        )
+        c.changeDynamics(
+            body_id,
+            -1,
+            lateralFriction=spec.lateral_friction,
+            spinningFriction=spec.spinning_friction,
+            rollingFriction=spec.rolling_friction,
+        )
+        self._bodies[name] = body_id
+        return body_id
+
+    # --- state ------------------------------------------------------------------------------
+    def step(self, n: int = 1) -> None:
+        step = self.client.stepSimulation
+        for _ in range(n):
+            step()
+
+    def base_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Position (3,) and quaternion (x, y, z, w) of a body's base frame."""
+        pos, quat = self.client.getBasePositionAndOrientation(self.body(name))
+        return np.array(pos), np.array(quat)
+
+    def base_velocity(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        lin, ang = self.client.getBaseVelocity(self.body(name))
+        return np.array(lin), np.array(ang)
+
+    def contacts(self, a: str, b: str, link_a: int | None = None) -> list[tuple]:
+        """pybullet contact points between two named bodies (optionally one link of `a`)."""
+        if link_a is None:
+            return list(self.client.getContactPoints(self.body(a), self.body(b)))
+        return list(self.client.getContactPoints(self.body(a), self.body(b), linkIndexA=link_a))
+
+    def render(self, camera: Camera) -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 from the CPU renderer: works headless."""
+        c = self.client
+        view = c.computeViewMatrix(list(camera.eye), list(camera.target), [0.0, 0.0, 1.0])
+        proj = c.computeProjectionMatrixFOV(
+            fov=camera.fov, aspect=camera.width / camera.height, nearVal=0.05, farVal=10.0
+        )
+        _, _, rgba, _, _ = c.getCameraImage(
+            camera.width,
+            camera.height,
+            viewMatrix=view,
+            projectionMatrix=proj,
+            renderer=pybullet.ER_TINY_RENDERER,
+        )
+        frame = np.asarray(rgba, dtype=np.uint8).reshape(camera.height, camera.width, 4)
+        return frame[:, :, :3].copy()
+
+
+def _shape_type(shape: str) -> int:
+    return pybullet.GEOM_CYLINDER if shape == "cylinder" else pybullet.GEOM_BOX
+
+
+def _half_extents(shape: str, size: tuple[float, ...]) -> list[float]:
+    if shape == "box":
+        return [s / 2.0 for s in size]
+    return [0.0, 0.0, 0.0]
