@@ -35,15 +35,18 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     base: ClutterRetrieveEnv = env.unwrapped  # type: ignore[assignment]
     try:
         obs, info = env.reset(seed=seed, options={"scene": chosen})
-        policy = DirectGraspPolicy(base.action_space.shape[0], get_surface(chosen.surface).top_z, seed)
-        base.start_recording(FRAME_EVERY)
+        policy = DirectGraspPolicy(
+            base.action_space.shape[0], get_surface(chosen.surface).top_z, seed
+        )
         steps, reward_sum, terminated, truncated = 0, 0.0, False, False
-        with tqdm(desc="demo", unit="sim s", total=None) as bar:
+        with tqdm(desc="demo (simulated s)", bar_format="{desc}: {n:.1f} [{elapsed}]") as bar:
+            base.start_recording(
+                FRAME_EVERY, on_frame=lambda n: bar.update(n * base.sim.timestep - bar.n)
+            )
             while not (terminated or truncated):
                 obs, reward, terminated, truncated, info = env.step(policy(obs))
                 steps += 1
                 reward_sum += reward
-                bar.update(info["sim_steps"] * base.sim.timestep - bar.n)
                 if policy.failure:
                     break
         frames = base.stop_recording()

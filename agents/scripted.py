@@ -1,4 +1,4 @@
-"""Scripted policies: plan from the first observation, then emit the plan one trajectory per step."""
+"""Scripted policies: plan from the first observation, then emit one trajectory per step."""
 
 from __future__ import annotations
 

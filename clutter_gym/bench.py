@@ -66,7 +66,7 @@ def bench_trajectory(steps: int, seed: int = 0) -> dict[str, float]:
             action[:, :7] = home + rng.uniform(-0.3, 0.3, size=(shape[0], 7))
             action[:, 7:] = rng.uniform(0.0, 0.5, size=(shape[0], 2))
             start = time.perf_counter()
-            _, _, terminated, truncated, info = env.step(action)
+            *_, info = env.step(action)
             elapsed += time.perf_counter() - start
             physics += info["sim_steps"]
             env.reset()
@@ -113,5 +113,7 @@ def bench_env(steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000)
     result.update(bench_resets(resets))
     panda = bench_panda(steps)
     result["panda_push_v3_steps_per_s"] = panda
-    result["low_level_vs_panda_ratio"] = None if panda is None else result["low_level_steps_per_s"] / panda
+    result["low_level_vs_panda_ratio"] = (
+        None if panda is None else result["low_level_steps_per_s"] / panda
+    )
     return result

@@ -1,9 +1,9 @@
 """The `clutter-gym` command line.
 
-    clutter-gym demo [--scene scene.json] [--out-dir out/demo]
-    clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
-    clutter-gym render --scene scene.json --out scene.png
-    clutter-gym bench env --json out.json
+clutter-gym demo [--scene scene.json] [--out-dir out/demo]
+clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
+clutter-gym render --scene scene.json --out scene.png
+clutter-gym bench env --json out.json
 """
 
 from __future__ import annotations
@@ -23,7 +23,16 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from agents.demo import run_demo
 
     summary = run_demo(scene=args.scene, out_dir=Path(args.out_dir), seed=args.seed)
-    print(json.dumps(summary, indent=2))
+    outcome = (
+        "success"
+        if summary["success"]
+        else f"failed: {summary['failure'] or summary['planning_failure']}"
+    )
+    print(
+        f"{outcome}; goal lifted {summary['goal_lift_m']:.3f} m in "
+        f"{summary['simulated_seconds']:.1f} simulated s; wrote {summary['gif']} and "
+        f"{Path(args.out_dir) / 'demo.json'}"
+    )
     return 0 if summary["success"] else 1
 
 
@@ -61,8 +70,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="clutter-gym", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="clutter-gym",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("demo", help="retrieve the goal object of a scene; write a GIF and JSON")

@@ -35,6 +35,7 @@ SETTLE_TIME = 0.5  # seconds of holding the last waypoint: the arm catches up, f
 EE_STEP = 0.01
 YAW_STEP = 0.05
 EE_SUBSTEPS = 10
+EE_IK_ITERATIONS = 15  # a 1 cm step converges in a few; more only burns time on unreachable ones
 TRAJECTORY_COLUMNS = 9  # 7 joints + spread + closure
 
 Substep = Callable[[], bool]
@@ -52,8 +53,14 @@ def check_finite(action: np.ndarray, expected_shape: tuple[int, ...]) -> np.ndar
 
 
 class TrajectoryController:
-    def __init__(self, herb: Herb, kinematics: ArmKinematics, waypoints: int, max_hand_speed: float,
-                 timestep: float) -> None:
+    def __init__(
+        self,
+        herb: Herb,
+        kinematics: ArmKinematics,
+        waypoints: int,
+        max_hand_speed: float,
+        timestep: float,
+    ) -> None:
         if waypoints < 1:
             raise ValueError(f"waypoints: {waypoints}; must be an integer >= 1")
         if not (math.isfinite(max_hand_speed) and max_hand_speed > 0):
@@ -65,7 +72,9 @@ class TrajectoryController:
         self.timestep = timestep
         low = np.tile(np.r_[kinematics.lower, 0.0, 0.0], (waypoints, 1))
         high = np.tile(np.r_[kinematics.upper, 1.0, 1.0], (waypoints, 1))
-        self.action_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(
+            low.astype(np.float32), high.astype(np.float32), dtype=np.float32
+        )
         self._hand = HandCommand()
 
     def reset(self, hand: HandCommand) -> None:
@@ -95,12 +104,14 @@ class TrajectoryController:
                     return bool(np.any(clipped != array))
             q_prev, hand_prev = q_next, hand_next
         self._hand = hand_prev
-        for _ in range(int(round(SETTLE_TIME / self.timestep))):
+        for _ in range(round(SETTLE_TIME / self.timestep)):
             if substep():
                 break
         return bool(np.any(clipped != array))
 
-    def segment_steps(self, q0: np.ndarray, q1: np.ndarray, h0: HandCommand, h1: HandCommand) -> int:
+    def segment_steps(
+        self, q0: np.ndarray, q1: np.ndarray, h0: HandCommand, h1: HandCommand
+    ) -> int:
         """Physics steps for one segment: the slowest of the joint, TCP and finger limits."""
         joint_time = float(np.max(np.abs(q1 - q0) / (hm.ARM_VELOCITY_LIMITS * JOINT_SPEED_SCALE)))
         samples = np.linspace(0.0, 1.0, 9)[:, None]
@@ -112,10 +123,9 @@ class TrajectoryController:
 
 
 class EndEffectorDeltaController:
-    def __init__(self, herb: Herb, kinematics: ArmKinematics, rng: Callable[[], np.random.Generator]) -> None:
+    def __init__(self, herb: Herb, kinematics: ArmKinematics) -> None:
         self.herb = herb
         self.kinematics = kinematics
-        self._rng = rng
         self.action_space = spaces.Box(-1.0, 1.0, shape=(5,), dtype=np.float32)
         self._target_rotation = np.eye(3)
         self._q_target = np.zeros(7)
@@ -133,7 +143,7 @@ class EndEffectorDeltaController:
         c, s = math.cos(YAW_STEP * clipped[3]), math.sin(YAW_STEP * clipped[3])
         yaw = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         target[:3, :3] = yaw @ self._target_rotation
-        solution = self.kinematics.solve_ik(target, seed=q, rng=self._rng(), max_restarts=0)
+        solution = self.kinematics.solve_ik_local(target, q, max_iter=EE_IK_ITERATIONS)
         if solution is not None:  # unreachable: hold the last reachable target
             self._q_target = solution
             self._target_rotation = target[:3, :3]

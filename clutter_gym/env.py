@@ -8,9 +8,11 @@ Observation (a Dict of fixed-shape arrays; M = `max_objects`):
 - arm_joints (7,), arm_velocities (7,): right arm state [rad, rad/s]
 - hand (4,): spread and F1, F2, F3 proximal angles [rad]
 - tcp_pose (7,): position [m] and quaternion (x, y, z, w) of the hand's TCP
-- object_poses (M, 3): DETECTED planar poses (x, y, theta): truth + Gaussian noise, redrawn each step
+- object_poses (M, 3): DETECTED planar poses (x, y, theta): truth + Gaussian noise, redrawn
+  every step
 - object_sizes (M, 3): footprint extents along the object's x and y, and height [m]
-- object_kinds (M,): 1 + index into `clutter_gym.env.OBJECT_KINDS` (the object library's order); 0 for an empty slot
+- object_kinds (M,): 1 + index into `clutter_gym.env.OBJECT_KINDS` (the library's order); 0 for an
+  empty slot
 - object_mask (M,): 1 where a slot holds an object
 - goal_object (): slot of the goal object
 - goal_region (4,): x_min, x_max, y_min, y_max [m]
@@ -21,6 +23,7 @@ True poses are only in `info["true_object_poses"]`, for evaluation.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Literal
 
 import gymnasium as gym
@@ -29,11 +32,18 @@ from gymnasium import spaces
 
 from clutter_gym.controllers import EndEffectorDeltaController, TrajectoryController
 from clutter_gym.objects import OBJECTS, Footprint, get_object
-from clutter_gym.perception import detect, resolve_noise
+from clutter_gym.perception import detect
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.herb import HandCommand, Herb
 from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.scene import LEVELS, MAX_OBJECTS, Scene, generate_scene, load_scene
+from clutter_gym.scene import (
+    LEVELS,
+    MAX_OBJECTS,
+    Scene,
+    generate_scene,
+    load_scene,
+    resolve_noise,
+)
 from clutter_gym.sim import Camera, Simulator
 from clutter_gym.task import REWARD_TYPES, RetrievalTask, RewardType
 from clutter_gym.world import SURFACES, get_surface
@@ -42,6 +52,7 @@ OBJECT_KINDS = tuple(OBJECTS)
 ControlMode = Literal["trajectory", "ee_delta"]
 CONTROL_MODES: tuple[ControlMode, ...] = ("trajectory", "ee_delta")
 DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
+WORLD_REACH = 5.0  # m: bounds every position in the world, so the observation spaces are finite
 SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on the surface
 MONITOR_EVERY = 8  # physics steps between task checks while a trajectory executes
 
@@ -73,7 +84,9 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.surface_name = surface
         self.noise_override = None if noise is None else resolve_noise(noise)
         self.reward_type: RewardType = reward_type
-        self.step_limit = DEFAULT_STEP_LIMITS[control_mode] if step_limit is None else int(step_limit)
+        self.step_limit = (
+            DEFAULT_STEP_LIMITS[control_mode] if step_limit is None else int(step_limit)
+        )
         if self.step_limit < 1:
             raise ValueError(f"step_limit: {step_limit}; must be an integer >= 1")
         self.camera = camera or Camera()
@@ -90,6 +103,7 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._sim_steps = 0
         self._ended = False
         self._recording_every = 0
+        self._on_frame: Callable[[int], object] | None = None
         self._frames: list[np.ndarray] = []
 
     # --- gymnasium API ----------------------------------------------------------------------
@@ -141,9 +155,13 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.sim.close()
 
     # --- recording (for GIFs of whole-trajectory steps) -----------------------------------------
-    def start_recording(self, every_sim_steps: int = 24) -> None:
-        """Collect a frame every `every_sim_steps` physics steps while actions execute."""
+    def start_recording(
+        self, every_sim_steps: int = 24, on_frame: Callable[[int], object] | None = None
+    ) -> None:
+        """Collect a frame every `every_sim_steps` physics steps while actions execute;
+        `on_frame(sim_steps)` is called after each (progress bars)."""
         self._recording_every = max(1, int(every_sim_steps))
+        self._on_frame = on_frame
         self._frames = [self.sim.render(self.camera)]
 
     def stop_recording(self) -> list[np.ndarray]:
@@ -163,20 +181,22 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.herb = Herb(self.sim)
         self._specs = {o.name: get_object(o.kind) for o in scene.objects}
         for placement in scene.objects:
-            self.sim.add_object(placement.name, self._specs[placement.name], placement.pose,
-                                self._surface.top_z)
+            self.sim.add_object(
+                placement.name, self._specs[placement.name], placement.pose, self._surface.top_z
+            )
         self.herb.reset(np.asarray(hm.RIGHT_ARM_HOME), HandCommand())
         self.sim.step(SETTLE_STEPS)
         self._sim_steps = 0
         self._sigma = self.noise_override or resolve_noise(scene.noise)
         self._task = RetrievalTask(self.sim, self.herb, scene, self._surface, self._specs)
         if self.control_mode == "trajectory":
-            traj = TrajectoryController(self.herb, self.kinematics, self._waypoints,
-                                        self._max_hand_speed, self.sim.timestep)
+            traj = TrajectoryController(
+                self.herb, self.kinematics, self._waypoints, self._max_hand_speed, self.sim.timestep
+            )
             traj.reset(HandCommand())
             self._controller: TrajectoryController | EndEffectorDeltaController = traj
         else:
-            ee = EndEffectorDeltaController(self.herb, self.kinematics, lambda: self.np_random)
+            ee = EndEffectorDeltaController(self.herb, self.kinematics)
             ee.reset(np.asarray(hm.RIGHT_ARM_HOME))
             self._controller = ee
 
@@ -185,6 +205,8 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._sim_steps += 1
         if self._recording_every and self._sim_steps % self._recording_every == 0:
             self._frames.append(self.sim.render(self.camera))
+            if self._on_frame is not None:
+                self._on_frame(self._sim_steps)
         if self._sim_steps % MONITOR_EVERY:
             return False
         return self._task.evaluate().done
@@ -194,7 +216,11 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         for i, placement in enumerate(self._scene.objects):
             pos, quat = self.sim.base_pose(placement.name)
             x, y, z, w = quat
-            poses[i] = pos[0], pos[1], np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+            poses[i] = (
+                pos[0],
+                pos[1],
+                np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)),
+            )
         return poses
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -203,7 +229,10 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         q, dq = self.herb.arm_state()
         tcp_pos, tcp_quat = self.herb.tcp_pose()
         poses = np.zeros((m, 3), dtype=np.float32)
-        poses[:n] = detect(self._true_poses(), self._sigma, self.np_random)
+        # Clipped only so that absurd custom noise levels stay inside the observation space.
+        poses[:n] = np.clip(
+            detect(self._true_poses(), self._sigma, self.np_random), -WORLD_REACH, WORLD_REACH
+        )
         sizes = np.zeros((m, 3), dtype=np.float32)
         kinds = np.zeros(m, dtype=np.int64)
         mask = np.zeros(m, dtype=np.int8)
@@ -246,21 +275,21 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
 
 def _observation_space(m: int) -> spaces.Dict:
-    inf = np.inf
     n_kinds = len(OBJECT_KINDS)
+    reach = WORLD_REACH
     return spaces.Dict(
         {
             "arm_joints": spaces.Box(-2 * np.pi, 2 * np.pi, (7,), np.float32),
             "arm_velocities": spaces.Box(-10.0, 10.0, (7,), np.float32),
             "hand": spaces.Box(-0.5, 3.5, (4,), np.float32),
-            "tcp_pose": spaces.Box(-inf, inf, (7,), np.float32),
-            "object_poses": spaces.Box(-inf, inf, (m, 3), np.float32),
-            "object_sizes": spaces.Box(0.0, inf, (m, 3), np.float32),
+            "tcp_pose": spaces.Box(-reach, reach, (7,), np.float32),
+            "object_poses": spaces.Box(-reach, reach, (m, 3), np.float32),
+            "object_sizes": spaces.Box(0.0, reach, (m, 3), np.float32),
             "object_kinds": spaces.MultiDiscrete([n_kinds + 1] * m),
             "object_mask": spaces.MultiBinary(m),
             "goal_object": spaces.Discrete(m),
-            "goal_region": spaces.Box(-inf, inf, (4,), np.float32),
-            "noise": spaces.Box(0.0, inf, (2,), np.float32),
+            "goal_region": spaces.Box(-reach, reach, (4,), np.float32),
+            "noise": spaces.Box(0.0, reach, (2,), np.float32),
             "surface": spaces.Discrete(len(SURFACES)),
         }
     )
@@ -269,7 +298,6 @@ def _observation_space(m: int) -> spaces.Dict:
 def _check_choice(field: str, value: object, allowed: tuple[object, ...]) -> None:
     if value not in allowed:
         raise ValueError(f"{field}: {value!r} is not allowed; choose one of {list(allowed)}")
-
 
 
 def _extents(footprint: Footprint) -> tuple[float, float]:

@@ -52,8 +52,14 @@ def _write_image(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
         if len(images) == 1:
             images[0].save(tmp)
         else:
-            images[0].save(tmp, save_all=True, append_images=images[1:],
-                           duration=int(1000 / fps), loop=0, optimize=False)
+            images[0].save(
+                tmp,
+                save_all=True,
+                append_images=images[1:],
+                duration=int(1000 / fps),
+                loop=0,
+                optimize=False,
+            )
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -7,26 +7,7 @@ that a seed fixes every detection of an episode.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-
-from clutter_gym.scene import NOISE_LEVELS
-
-
-def resolve_noise(noise: str | tuple[float, float] | list[float]) -> tuple[float, float]:
-    """(sigma_xy [m], sigma_theta [rad]) from a level name or a custom pair; errors list choices."""
-    if isinstance(noise, str):
-        if noise not in NOISE_LEVELS:
-            allowed = ", ".join(sorted(NOISE_LEVELS))
-            raise ValueError(f"noise: unknown level {noise!r}; allowed: {allowed} or (sigma_xy, sigma_theta)")
-        return NOISE_LEVELS[noise]
-    values = tuple(float(v) for v in noise)
-    if len(values) != 2 or not all(math.isfinite(v) and v >= 0.0 for v in values):
-        raise ValueError(
-            f"noise: {noise!r} is not a pair of finite non-negative numbers (sigma_xy, sigma_theta)"
-        )
-    return values[0], values[1]
 
 
 def wrap_angle(theta: np.ndarray) -> np.ndarray:
@@ -34,7 +15,9 @@ def wrap_angle(theta: np.ndarray) -> np.ndarray:
     return (np.asarray(theta) + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def detect(true_poses: np.ndarray, sigma: tuple[float, float], rng: np.random.Generator) -> np.ndarray:
+def detect(
+    true_poses: np.ndarray, sigma: tuple[float, float], rng: np.random.Generator
+) -> np.ndarray:
     """Detected planar poses (N, 3): true (x, y, theta) plus independent Gaussian noise."""
     true_poses = np.asarray(true_poses, dtype=np.float64).reshape(-1, 3)
     sigma_xy, sigma_theta = sigma

@@ -28,10 +28,11 @@ GRAVITY = -9.81
 
 @dataclass(frozen=True)
 class Camera:
-    """A pinhole camera at `eye` looking at `target`; the default sees HERB and the workspace."""
+    """A pinhole camera at `eye` looking at `target`; the default looks over HERB's right
+    shoulder at the workspace, so the hand is never hidden behind clutter."""
 
-    eye: tuple[float, float, float] = (1.75, 0.55, 1.45)
-    target: tuple[float, float, float] = (0.55, -0.25, 0.85)
+    eye: tuple[float, float, float] = (0.3, -1.45, 1.6)
+    target: tuple[float, float, float] = (0.95, -0.2, 0.85)
     width: int = 480
     height: int = 360
     fov: float = 50.0
@@ -110,7 +111,9 @@ class Simulator:
         self._bodies[name] = body_id
         return body_id
 
-    def add_object(self, name: str, spec: ObjectSpec, pose: Sequence[float], surface_z: float) -> int:
+    def add_object(
+        self, name: str, spec: ObjectSpec, pose: Sequence[float], surface_z: float
+    ) -> int:
         """A movable object standing upright at planar pose (x, y, theta) on a surface."""
         c = self.client
         prims = spec.primitives

@@ -77,7 +77,9 @@ class RetrievalTask:
         """Two or more fingers touch the goal, and only the robot touches it."""
         c = self.sim.client
         goal_id = self.sim.body(self.goal)
-        touching = {pt[1] if pt[2] == goal_id else pt[2] for pt in c.getContactPoints(bodyA=goal_id)}
+        touching = {
+            pt[1] if pt[2] == goal_id else pt[2] for pt in c.getContactPoints(bodyA=goal_id)
+        }
         if touching != {self.herb.body_id}:
             return False
         links = {pt[4] for pt in c.getContactPoints(goal_id, self.herb.body_id)}
@@ -92,7 +94,9 @@ class RetrievalTask:
             success = held and lift >= LIFT_HEIGHT
         else:
             success = self._goal_in_region()
-        return Outcome(success=success and not failure, failure=failure, goal_held=held, goal_lift=lift)
+        return Outcome(
+            success=success and not failure, failure=failure, goal_held=held, goal_lift=lift
+        )
 
     def reward(self, outcome: Outcome, reward_type: RewardType) -> float:
         reward = SUCCESS_REWARD if outcome.success else FAILURE_REWARD if outcome.failure else 0.0

@@ -76,7 +76,9 @@ def plan_direct_grasp(
             failures.append(str(error))
             continue
         if len(rows) > waypoints:
-            raise PlanningError(f"the grasp needs {len(rows)} waypoints; the env allows {waypoints}")
+            raise PlanningError(
+                f"the grasp needs {len(rows)} waypoints; the env allows {waypoints}"
+            )
         rows.extend([rows[-1]] * (waypoints - len(rows)))
         return np.asarray(rows, dtype=np.float32)
     most_common = max(set(failures), key=failures.count)
@@ -110,9 +112,12 @@ def _grasp_along(
     pregrasp = centre - PREGRASP_DISTANCE * direction
     retreat = kinematics.cartesian_path(q_grasp, pose(pregrasp), 6, accept=clear)
     if retreat is None:
-        raise PlanningError(f"no straight approach from the pregrasp {np.round(pregrasp, 3).tolist()}")
-    rise = kinematics.cartesian_path(retreat[-1], pose(pregrasp + [0.0, 0.0, HOVER_HEIGHT]), 4,
-                                     accept=clear)
+        raise PlanningError(
+            f"no straight approach from the pregrasp {np.round(pregrasp, 3).tolist()}"
+        )
+    rise = kinematics.cartesian_path(
+        retreat[-1], pose(pregrasp + [0.0, 0.0, HOVER_HEIGHT]), 4, accept=clear
+    )
     if rise is None:
         raise PlanningError("no straight descent from above the pregrasp")
     lift = kinematics.cartesian_path(q_grasp, pose(centre + [0.0, 0.0, LIFT]), 5, accept=clear)

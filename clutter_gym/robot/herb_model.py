@@ -497,7 +497,9 @@ def herb_urdf(parked: Mapping[str, float] | None = None) -> str:
     left side this way, which removes 15 simulated DoF and their motors from every physics step.
     """
     parked = dict(parked or {})
-    unknown = set(parked) - {n for side in SIDES for n in arm_joint_names(side) + hand_joint_names(side)}
+    unknown = set(parked) - {
+        n for side in SIDES for n in arm_joint_names(side) + hand_joint_names(side)
+    }
     if unknown:
         raise ValueError(f"parked: unknown joints {sorted(unknown)}")
     parts = ['<?xml version="1.0"?>', '<robot name="herb">']

@@ -186,6 +186,24 @@ class ArmKinematics:
         return j
 
     # ---------------------------------------------------------------- inverse kinematics
+    def solve_ik_local(
+        self,
+        target: np.ndarray,
+        seed: np.ndarray,
+        max_iter: int = 15,
+        pos_tol: float = 1e-4,
+        rot_tol: float = 1e-3,
+    ) -> np.ndarray | None:
+        """IK by descent from `seed` only, never a restart: for small moves that must stay
+        continuous with the current configuration (end-effector-delta control)."""
+        return self._descend(
+            np.asarray(target, dtype=float),
+            np.asarray(seed, dtype=float),
+            pos_tol,
+            rot_tol,
+            max_iter,
+        )
+
     def _descend(
         self, target: np.ndarray, q0: np.ndarray, pos_tol: float, rot_tol: float, max_iter: int
     ) -> np.ndarray | None:

@@ -1,0 +1,596 @@
+"""Scenes: which objects stand where, which one to retrieve, and how noisy perception is.
+
+A scene is stored as JSON (format ``clutter-gym-scene/1``)::
+
+    {
+      "format": "clutter-gym-scene/1",
+      "surface": "table",
+      "objects": [
+        {"name": "can", "kind": "soda_can", "pose": [0.90, -0.20, 0.0]},
+        {"name": "box", "kind": "large_box", "pose": [1.08, -0.25, 1.5708]}
+      ],
+      "goal": {"object": "can", "region": {"x": [0.63, 1.37], "y": [-1.125, 0.725]},
+               "success": "lift"},
+      "noise": "sigma2"
+    }
+
+* ``surface``: ``"table"`` or ``"shelf"`` (see ``clutter_gym.world``).
+* ``objects``: 1 to ``MAX_OBJECTS`` objects with unique names; ``kind`` is a key of
+  ``clutter_gym.objects.OBJECTS``; ``pose`` is ``[x, y, theta]`` of the object's base centre on
+  the surface top, in the robot's base frame (metres, radians).
+* ``goal.object``: the name of the (graspable) object to retrieve.  ``goal.region`` (optional,
+  default: the surface's ``default_goal_region``) is where the object must end up;
+  ``goal.success`` (optional, default: the surface's) is ``"lift"`` (held above the surface
+  inside the region) or ``"region"`` (brought into the region, e.g. the front of the shelf).
+* ``noise`` (optional, default ``"sigma2"``): the pose uncertainty of perception, either a name
+  of ``NOISE_LEVELS`` or ``{"xy": sigma_xy, "theta": sigma_theta}`` (m, rad), the standard
+  deviations of Gaussian noise on the detected poses.
+
+Loading validates everything: every error is a ``ValueError`` whose message starts with the
+JSON path of the offending field (e.g. ``objects[2].pose``) and says what was found and what
+is allowed.  Beyond types, scenes whose objects interpenetrate or whose footprints leave the
+surface are rejected, since the simulator would resolve them by launching objects.
+
+``generate_scene`` draws random scenes at the paper's three clutter levels (§3.1.2); the ten
+fixed scenes per level of ``paper_suite`` are committed under ``scenes/paper`` and regenerated
+by ``python -m clutter_gym.scene``.  The paper evaluates each scene at every noise level, e.g.
+``dataclasses.replace(scene, noise="sigma3")``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import fcl
+import numpy as np
+
+from clutter_gym.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
+from clutter_gym.world import SURFACES, Region, Surface
+
+SCENE_FORMAT = "clutter-gym-scene/1"
+MAX_OBJECTS = 8
+LEVELS = ("none", "medium", "high")
+Level = Literal["none", "medium", "high"]
+Success = Literal["lift", "region"]
+SUCCESS_MODES: tuple[Success, ...] = ("lift", "region")
+
+NOISE_LEVELS: dict[str, tuple[float, float]] = {
+    "sigma1": (0.0, 0.0),
+    "sigma2": (0.005, 0.034),
+    "sigma3": (0.02, 0.175),
+    "sigma4": (0.06, 0.785),
+    "detector": (0.007, 0.07),
+}
+"""Perception noise ``(sigma_xy [m], sigma_theta [rad])``: the paper's σ1–σ4 and a typical
+object detector."""
+DEFAULT_NOISE = "sigma2"
+_NOISE_EXPECTED = (
+    ", ".join(repr(n) for n in NOISE_LEVELS) + ' or {"xy": sigma_xy, "theta": sigma_theta}'
+)
+
+PENETRATION_TOLERANCE = 1e-4
+"""Interpenetration (m) tolerated, since fcl reports touching shapes as colliding."""
+
+MEDIUM_MIN_GAP = 0.10
+"""Medium clutter: every pair of footprints is at least this far apart (m)."""
+HIGH_GAP = (0.01, 0.05)
+"""High clutter: each object is within this footprint-gap range (m) of a neighbour, and no
+two footprints are closer than its lower end."""
+POSE_DECIMALS = 4
+"""Generated poses are rounded (0.1 mm, 0.1 mrad) so the committed JSON stays readable."""
+
+PAPER_SUITE_DIR = Path(__file__).parent / "scenes" / "paper"
+PAPER_SUITE_SIZE = 10
+PAPER_SUITE_SEED = 1000
+
+_OBJECT_COUNTS: dict[str, tuple[int, int]] = {"none": (1, 1), "medium": (2, 3), "high": (3, 4)}
+_GOAL_KINDS = tuple(kind for kind, spec in OBJECTS.items() if spec.graspable and spec.liftable)
+_CLUTTER_WEIGHTS: dict[str, float] = {
+    "soda_can": 3.0,
+    "juice_bottle": 3.0,
+    "poptart_box": 3.0,
+    "large_box": 1.0,
+    "dumbbell": 1.0,
+}
+"""Clutter kind frequencies: the large box and dumbbell are rarer, as in the paper's scenes."""
+_SCENE_ATTEMPTS = 200
+_PLACEMENT_ATTEMPTS = 100
+_BISECTION_STEPS = 30
+
+
+def _invalid(path: str, got: object, expected: str) -> ValueError:
+    return ValueError(f"{path}: got {got!r}; expected {expected}")
+
+
+def _allowed(names: Sequence[str] | Mapping[str, Any]) -> str:
+    return "one of " + ", ".join(repr(n) for n in sorted(names))
+
+
+def _surface(name: str, path: str) -> Surface:
+    if name not in SURFACES:
+        raise _invalid(path, name, _allowed(SURFACES))
+    return SURFACES[name]
+
+
+@dataclass(frozen=True)
+class ObjectPlacement:
+    """A named instance of an object kind at a planar pose on the scene's surface."""
+
+    name: str
+    kind: str
+    pose: Pose
+
+    @property
+    def spec(self) -> ObjectSpec:
+        return get_object(self.kind)
+
+
+@dataclass(frozen=True)
+class GoalSpec:
+    """Which object to retrieve and where it must end up (``region`` as x and y ranges)."""
+
+    object: str
+    region: Region
+    success: Success
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: constructing one checks it, so every ``Scene`` is simulable."""
+
+    surface: str
+    objects: tuple[ObjectPlacement, ...]
+    goal: GoalSpec
+    noise: str | tuple[float, float] = DEFAULT_NOISE
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+    @property
+    def noise_sigma(self) -> tuple[float, float]:
+        """Perception noise ``(sigma_xy, sigma_theta)`` in metres and radians."""
+        return resolve_noise(self.noise)
+
+    @property
+    def goal_placement(self) -> ObjectPlacement:
+        return next(o for o in self.objects if o.name == self.goal.object)
+
+
+def _validate(scene: Scene) -> None:
+    surface = _surface(scene.surface, "surface")
+    _validate_objects(scene.objects)
+    _validate_goal(scene)
+    resolve_noise(scene.noise)
+    _validate_support(scene.objects, surface)
+    _validate_interpenetration(scene.objects, surface)
+
+
+def _validate_objects(objects: tuple[ObjectPlacement, ...]) -> None:
+    if not 1 <= len(objects) <= MAX_OBJECTS:
+        raise ValueError(f"objects: got {len(objects)} objects; expected 1 to {MAX_OBJECTS}")
+    first_index: dict[str, int] = {}
+    for i, obj in enumerate(objects):
+        if not isinstance(obj.name, str) or not obj.name:
+            raise _invalid(f"objects[{i}].name", obj.name, "a non-empty string")
+        if obj.name in first_index:
+            raise _invalid(
+                f"objects[{i}].name",
+                obj.name,
+                f"a unique name (already used by objects[{first_index[obj.name]}])",
+            )
+        first_index[obj.name] = i
+        if obj.kind not in OBJECTS:
+            raise _invalid(f"objects[{i}].kind", obj.kind, _allowed(OBJECTS))
+        if len(obj.pose) != 3 or not all(math.isfinite(v) for v in obj.pose):
+            raise _invalid(f"objects[{i}].pose", obj.pose, "[x, y, theta] of finite numbers")
+
+
+def _validate_goal(scene: Scene) -> None:
+    goal = scene.goal
+    names = [o.name for o in scene.objects]
+    if goal.object not in names:
+        raise _invalid("goal.object", goal.object, "the name of a scene object: " + _allowed(names))
+    spec = scene.goal_placement.spec
+    if not spec.graspable:
+        graspable = [k for k, s in OBJECTS.items() if s.graspable]
+        raise _invalid(
+            "goal.object",
+            goal.object,
+            f"a graspable object, not a {spec.kind} (graspable kinds: {', '.join(graspable)})",
+        )
+    if goal.success not in SUCCESS_MODES:
+        raise _invalid("goal.success", goal.success, _allowed(SUCCESS_MODES))
+    if goal.success == "lift" and not spec.liftable:
+        raise _invalid(
+            "goal.object",
+            goal.object,
+            f"a liftable object for success 'lift', not a {spec.kind} (use success 'region')",
+        )
+    if len(goal.region) != 2:
+        raise _invalid("goal.region", goal.region, "(x range, y range)")
+    for axis, bounds in zip("xy", goal.region, strict=True):
+        path = f"goal.region.{axis}"
+        if len(bounds) != 2 or not all(math.isfinite(v) for v in bounds):
+            raise _invalid(path, bounds, "[min, max] of finite numbers")
+        if bounds[0] > bounds[1]:
+            raise _invalid(path, bounds, "[min, max] with min <= max")
+
+
+def resolve_noise(noise: str | Sequence[float], path: str = "noise") -> tuple[float, float]:
+    """``(sigma_xy, sigma_theta)`` of a level name or a custom pair; errors name the field."""
+    if isinstance(noise, str):
+        if noise not in NOISE_LEVELS:
+            raise _invalid(path, noise, _allowed(NOISE_LEVELS) + ' or {"xy": .., "theta": ..}')
+        return NOISE_LEVELS[noise]
+    values = tuple(noise)
+    if len(values) != 2:
+        raise _invalid(path, noise, "a level name or a pair (sigma_xy, sigma_theta)")
+    for key, sigma in zip(("xy", "theta"), values, strict=True):
+        number = isinstance(sigma, (int, float)) and not isinstance(sigma, bool)
+        if not (number and math.isfinite(sigma) and sigma >= 0):
+            raise _invalid(f"{path}.{key}", sigma, "a finite standard deviation >= 0")
+    return float(values[0]), float(values[1])
+
+
+def _validate_support(objects: tuple[ObjectPlacement, ...], surface: Surface) -> None:
+    x_min, x_max, y_min, y_max = surface.bounds
+    where = "inside the shelf walls" if surface.name == "shelf" else "on the table top"
+    for i, obj in enumerate(objects):
+        ox_min, ox_max, oy_min, oy_max = obj.spec.footprint.aabb(obj.pose)
+        if ox_min < x_min or ox_max > x_max or oy_min < y_min or oy_max > y_max:
+            raise ValueError(
+                f"objects[{i}].pose: {obj.name!r} ({obj.kind}) at {list(obj.pose)} has its "
+                f"footprint over x [{ox_min:.3f}, {ox_max:.3f}], y [{oy_min:.3f}, {oy_max:.3f}],"
+                f" which leaves the {surface.name}; footprints must stay {where}: "
+                f"x [{x_min}, {x_max}], y [{y_min}, {y_max}]"
+            )
+
+
+def _penetration(a: list[fcl.CollisionObject], b: list[fcl.CollisionObject]) -> float:
+    """Deepest penetration between two objects' primitives; 0 when they are apart."""
+    depth = 0.0
+    for pa in a:
+        for pb in b:
+            request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=1)
+            result = fcl.CollisionResult()
+            if fcl.collide(pa, pb, request, result):
+                depth = max(depth, *(c.penetration_depth for c in result.contacts))
+    return depth
+
+
+def _validate_interpenetration(objects: tuple[ObjectPlacement, ...], surface: Surface) -> None:
+    geometry = [o.spec.fcl_objects(o.pose, surface.top_z) for o in objects]
+    for j, b in enumerate(objects):
+        for i, a in enumerate(objects[:j]):
+            reach = a.spec.footprint.bounding_radius + b.spec.footprint.bounding_radius
+            if math.dist(a.pose[:2], b.pose[:2]) > reach:
+                continue
+            depth = _penetration(geometry[i], geometry[j])
+            if depth > PENETRATION_TOLERANCE:
+                raise ValueError(
+                    f"objects[{j}].pose: {b.name!r} ({b.kind}) interpenetrates {a.name!r} "
+                    f"(objects[{i}], {a.kind}) by {depth * 1000:.1f} mm; objects may touch "
+                    f"but not overlap (tolerance {PENETRATION_TOLERANCE * 1000:.1f} mm)"
+                )
+
+
+# --- JSON ---------------------------------------------------------------------------------
+
+
+def _mapping(
+    value: object, path: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
+) -> Mapping[str, Any]:
+    prefix = f"{path}." if path else ""
+    if not isinstance(value, Mapping):
+        raise _invalid(path or "scene", value, "a JSON object")
+    for key in required:
+        if key not in value:
+            raise ValueError(f"{prefix}{key}: missing required key")
+    extra = sorted(str(k) for k in value if k not in required + optional)
+    if extra:
+        raise ValueError(
+            f"{prefix}{extra[0]}: unknown key; allowed keys: {', '.join(required + optional)}"
+        )
+    return value
+
+
+def _string(value: object, path: str) -> str:
+    if not isinstance(value, str):
+        raise _invalid(path, value, "a string")
+    return value
+
+
+def _number(value: object, path: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _invalid(path, value, "a number")
+    if not math.isfinite(value):
+        raise _invalid(path, value, "a finite number")
+    return float(value)
+
+
+def _numbers(value: object, path: str, length: int, what: str) -> tuple[float, ...]:
+    if not isinstance(value, list | tuple) or len(value) != length:
+        raise _invalid(path, value, what)
+    return tuple(_number(v, f"{path}[{k}]") for k, v in enumerate(value))
+
+
+def _range(value: object, path: str) -> tuple[float, float]:
+    low, high = _numbers(value, path, 2, "[min, max]")
+    return low, high
+
+
+def scene_from_dict(d: Mapping[str, Any]) -> Scene:
+    """Parse and validate a scene from its JSON form (see the module docstring)."""
+    top = _mapping(d, "", ("format", "surface", "objects", "goal"), ("noise",))
+    if top["format"] != SCENE_FORMAT:
+        raise _invalid("format", top["format"], repr(SCENE_FORMAT))
+    surface = _surface(_string(top["surface"], "surface"), "surface")
+    raw_objects = top["objects"]
+    if not isinstance(raw_objects, list):
+        raise _invalid("objects", raw_objects, "a list of objects")
+    objects = []
+    for i, raw in enumerate(raw_objects):
+        path = f"objects[{i}]"
+        entry = _mapping(raw, path, ("name", "kind", "pose"))
+        x, y, theta = _numbers(entry["pose"], f"{path}.pose", 3, "[x, y, theta]")
+        objects.append(
+            ObjectPlacement(
+                name=_string(entry["name"], f"{path}.name"),
+                kind=_string(entry["kind"], f"{path}.kind"),
+                pose=(x, y, theta),
+            )
+        )
+    goal = _mapping(top["goal"], "goal", ("object",), ("region", "success"))
+    region = surface.default_goal_region
+    if "region" in goal:
+        raw_region = _mapping(goal["region"], "goal.region", ("x", "y"))
+        region = (
+            _range(raw_region["x"], "goal.region.x"),
+            _range(raw_region["y"], "goal.region.y"),
+        )
+    success = _string(goal.get("success", surface.success), "goal.success")
+    if success not in SUCCESS_MODES:
+        raise _invalid("goal.success", success, _allowed(SUCCESS_MODES))
+    noise: str | tuple[float, float] = DEFAULT_NOISE
+    if "noise" in top and isinstance(top["noise"], Mapping):
+        raw_noise = _mapping(top["noise"], "noise", ("xy", "theta"))
+        noise = (_number(raw_noise["xy"], "noise.xy"), _number(raw_noise["theta"], "noise.theta"))
+    elif "noise" in top:
+        if not isinstance(top["noise"], str):
+            raise _invalid("noise", top["noise"], _NOISE_EXPECTED)
+        noise = top["noise"]
+    return Scene(
+        surface=surface.name,
+        objects=tuple(objects),
+        goal=GoalSpec(
+            object=_string(goal["object"], "goal.object"), region=region, success=success
+        ),
+        noise=noise,
+    )
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """The JSON form of a scene, with every optional field written out."""
+    (x_range, y_range) = scene.goal.region
+    return {
+        "format": SCENE_FORMAT,
+        "surface": scene.surface,
+        "objects": [{"name": o.name, "kind": o.kind, "pose": list(o.pose)} for o in scene.objects],
+        "goal": {
+            "object": scene.goal.object,
+            "region": {"x": list(x_range), "y": list(y_range)},
+            "success": scene.goal.success,
+        },
+        "noise": (
+            scene.noise
+            if isinstance(scene.noise, str)
+            else {"xy": scene.noise[0], "theta": scene.noise[1]}
+        ),
+    }
+
+
+def scene_to_json(scene: Scene) -> str:
+    """Indented JSON with one line per object, so scene files diff well."""
+    d = scene_to_dict(scene)
+    objects = ",\n".join(f"    {json.dumps(o)}" for o in d["objects"])
+    fields = [
+        f'  "objects": [\n{objects}\n  ]'
+        if key == "objects"
+        else f"  {json.dumps(key)}: {json.dumps(value)}"
+        for key, value in d.items()
+    ]
+    return "{\n" + ",\n".join(fields) + "\n}\n"
+
+
+def load_scene(source: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
+    """Load a scene from a JSON file or from its already-parsed dict."""
+    if isinstance(source, Mapping):
+        return scene_from_dict(source)
+    path = Path(source)
+    try:
+        data = json.loads(path.read_text())
+        return scene_from_dict(data)
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not valid JSON: {err}") from err
+    except ValueError as err:
+        raise ValueError(f"{path}: {err}") from err
+
+
+def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:
+    """Write a scene as JSON atomically, so readers never see a half-written file."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        temporary.write_text(scene_to_json(scene))
+        os.replace(temporary, target)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+# --- generation ---------------------------------------------------------------------------
+
+
+def _round_pose(x: float, y: float, theta: float) -> Pose:
+    wrapped = (theta + math.pi) % (2 * math.pi) - math.pi
+    return round(x, POSE_DECIMALS), round(y, POSE_DECIMALS), round(wrapped, POSE_DECIMALS)
+
+
+def _inside(aabb: tuple[float, float, float, float], region: Region) -> bool:
+    (x_min, x_max), (y_min, y_max) = region
+    return x_min <= aabb[0] and aabb[1] <= x_max and y_min <= aabb[2] and aabb[3] <= y_max
+
+
+def _overlaps(aabb: tuple[float, float, float, float], region: Region) -> bool:
+    (x_min, x_max), (y_min, y_max) = region
+    return aabb[0] < x_max and x_min < aabb[1] and aabb[2] < y_max and y_min < aabb[3]
+
+
+def _uniform_pose(spec: ObjectSpec, workspace: Region, rng: np.random.Generator) -> Pose | None:
+    """A uniform pose with the footprint inside the workspace, or None if the drawn yaw
+    does not fit (a long box in a shallow shelf)."""
+    (x_min, x_max), (y_min, y_max) = workspace
+    theta = rng.uniform(-math.pi, math.pi)
+    ax0, ax1, ay0, ay1 = spec.footprint.aabb((0.0, 0.0, theta))
+    if ax1 - ax0 > x_max - x_min or ay1 - ay0 > y_max - y_min:
+        return None
+    return _round_pose(
+        rng.uniform(x_min - ax0, x_max - ax1), rng.uniform(y_min - ay0, y_max - ay1), theta
+    )
+
+
+def _pose_at_gap(
+    spec: ObjectSpec, anchor: ObjectPlacement, gap: float, rng: np.random.Generator
+) -> Pose:
+    """A pose of ``spec`` whose footprint is ``gap`` away from ``anchor``'s in a random
+    direction.  The gap grows monotonically along a ray out of the anchor (it is the
+    distance to a convex set), so bisection on the ray finds it."""
+    direction = rng.uniform(-math.pi, math.pi)
+    theta = rng.uniform(-math.pi, math.pi)
+    ux, uy = math.cos(direction), math.sin(direction)
+    ax, ay, _ = anchor.pose
+    anchor_fp, fp = anchor.spec.footprint, spec.footprint
+    low, high = 0.0, anchor_fp.bounding_radius + fp.bounding_radius + gap
+    for _ in range(_BISECTION_STEPS):
+        mid = (low + high) / 2
+        if footprint_gap(anchor_fp, anchor.pose, fp, (ax + mid * ux, ay + mid * uy, theta)) < gap:
+            low = mid
+        else:
+            high = mid
+    return _round_pose(ax + high * ux, ay + high * uy, theta)
+
+
+def _place(
+    level: str,
+    spec: ObjectSpec,
+    placed: list[ObjectPlacement],
+    workspace: Region,
+    avoid: Region | None,
+    rng: np.random.Generator,
+) -> Pose | None:
+    """Sample a pose for the next object that keeps the level's clutter properties and
+    keeps its footprint out of ``avoid``; None after a bounded number of attempts."""
+    for _ in range(_PLACEMENT_ATTEMPTS):
+        if level == "high" and placed:
+            anchor = placed[int(rng.integers(len(placed)))]
+            pose: Pose | None = _pose_at_gap(spec, anchor, rng.uniform(*HIGH_GAP), rng)
+        else:
+            pose = _uniform_pose(spec, workspace, rng)
+        if pose is None or not _inside(spec.footprint.aabb(pose), workspace):
+            continue
+        if avoid is not None and _overlaps(spec.footprint.aabb(pose), avoid):
+            continue
+        gaps = [footprint_gap(spec.footprint, pose, o.spec.footprint, o.pose) for o in placed]
+        if not gaps:
+            return pose
+        if level == "medium" and min(gaps) >= MEDIUM_MIN_GAP:
+            return pose
+        if level == "high" and min(gaps) >= HIGH_GAP[0] and min(gaps) <= HIGH_GAP[1]:
+            return pose
+    return None
+
+
+def generate_scene(
+    level: Level,
+    seed: int,
+    surface: str = "table",
+    noise: str | tuple[float, float] = DEFAULT_NOISE,
+) -> Scene:
+    """A random scene at one of the paper's clutter levels, reproducible from ``seed``.
+
+    none: the goal object alone.  medium: 2–3 objects, every footprint gap >= 0.10 m.
+    high: 3–4 objects, each within 0.01–0.05 m of another (the goal has such a neighbour)
+    and none closer than 0.01 m.  The goal is a graspable, liftable kind; all objects lie
+    inside the surface's workspace.
+    """
+    if level not in LEVELS:
+        raise _invalid("level", level, _allowed(LEVELS))
+    world = _surface(surface, "surface")
+    rng = np.random.default_rng(seed)
+    kinds = list(_CLUTTER_WEIGHTS)
+    weights = np.array([_CLUTTER_WEIGHTS[k] for k in kinds])
+    low, high = _OBJECT_COUNTS[level]
+    for _ in range(_SCENE_ATTEMPTS):
+        count = int(rng.integers(low, high + 1))
+        chosen = [str(rng.choice(_GOAL_KINDS))]
+        chosen += [str(k) for k in rng.choice(kinds, size=count - 1, p=weights / weights.sum())]
+        placed: list[ObjectPlacement] = []
+        counters: dict[str, int] = {}
+        for kind in chosen:
+            # The goal must start outside a "region" goal, or the task is solved at reset.
+            avoid = world.default_goal_region if not placed and world.success == "region" else None
+            pose = _place(level, get_object(kind), placed, world.workspace, avoid, rng)
+            if pose is None:
+                break
+            name = f"{kind}_{counters.get(kind, 0)}"
+            counters[kind] = counters.get(kind, 0) + 1
+            placed.append(ObjectPlacement(name=name, kind=kind, pose=pose))
+        else:
+            goal = GoalSpec(placed[0].name, world.default_goal_region, world.success)
+            return Scene(surface=world.name, objects=tuple(placed), goal=goal, noise=noise)
+    raise RuntimeError(
+        f"could not generate a {level!r} clutter scene on the {surface} with seed {seed} "
+        f"in {_SCENE_ATTEMPTS} attempts; the workspace is too small for these objects"
+    )
+
+
+# --- paper suite --------------------------------------------------------------------------
+
+
+def _suite_path(directory: Path, surface: str, level: str, index: int) -> Path:
+    """Table scenes sit directly in the suite directory, shelf scenes in ``shelf/``."""
+    folder = directory if surface == "table" else directory / surface
+    return folder / f"{level}_{index:02d}.json"
+
+
+def paper_suite(level: Level, surface: str = "table") -> list[Scene]:
+    """The ten fixed scenes of a clutter level, as in the paper's Table 1."""
+    if level not in LEVELS:
+        raise _invalid("level", level, _allowed(LEVELS))
+    _surface(surface, "surface")
+    return [
+        load_scene(_suite_path(PAPER_SUITE_DIR, surface, level, i)) for i in range(PAPER_SUITE_SIZE)
+    ]
+
+
+def write_paper_suite(directory: str | os.PathLike[str]) -> list[Path]:
+    """Generate the suite for every surface and level (seeds 1000–1009) into ``directory``."""
+    written = []
+    for surface in SURFACES:
+        for level in LEVELS:
+            for i in range(PAPER_SUITE_SIZE):
+                path = _suite_path(Path(directory), surface, level, i)
+                save_scene(generate_scene(level, PAPER_SUITE_SEED + i, surface=surface), path)
+                written.append(path)
+    return written
+
+
+if __name__ == "__main__":
+    paths = write_paper_suite(PAPER_SUITE_DIR)
+    print(f"wrote {len(paths)} scenes under {PAPER_SUITE_DIR}")

@@ -1,0 +1,130 @@
+"""The static support surfaces objects stand on: HERB's table and a shelf unit.
+
+All coordinates are in the robot's base frame: origin on the floor under HERB, x forward,
+y left, z up (metres).  HERB's right shoulder is at about (0.08, -0.19, 0.915) with ~0.9 m
+of reach, so both surfaces sit in front-right of the robot.
+
+Every static part is an axis-aligned ``Box``; the simulator and the collision checker are both
+built from ``Surface.boxes``, so there is one description of the world.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Range = tuple[float, float]
+Region = tuple[Range, Range]
+"""An axis-aligned planar rectangle as ``((x_min, x_max), (y_min, y_max))``."""
+
+_WOOD = (0.55, 0.38, 0.22, 1.0)
+_DARK_WOOD = (0.40, 0.27, 0.16, 1.0)
+_BOARD = (0.85, 0.82, 0.75, 1.0)
+
+
+@dataclass(frozen=True)
+class Box:
+    """A static axis-aligned box: centre and half extents in metres."""
+
+    centre: tuple[float, float, float]
+    half_extents: tuple[float, float, float]
+    rgba: tuple[float, float, float, float]
+
+    @classmethod
+    def from_bounds(
+        cls, x: Range, y: Range, z: Range, rgba: tuple[float, float, float, float]
+    ) -> Box:
+        """Build a box from its extent along each axis, the way furniture is measured."""
+        return cls(
+            centre=((x[0] + x[1]) / 2, (y[0] + y[1]) / 2, (z[0] + z[1]) / 2),
+            half_extents=((x[1] - x[0]) / 2, (y[1] - y[0]) / 2, (z[1] - z[0]) / 2),
+            rgba=rgba,
+        )
+
+
+@dataclass(frozen=True)
+class Surface:
+    """A support surface: where objects may stand and what counts as success by default.
+
+    ``bounds`` is the supporting top ``(x_min, x_max, y_min, y_max)`` that an object's
+    footprint must stay inside (for the shelf: inside the walls).  ``workspace`` is the
+    smaller area the right arm can reach, where scene generators place objects.
+    """
+
+    name: Literal["table", "shelf"]
+    top_z: float
+    bounds: tuple[float, float, float, float]
+    boxes: tuple[Box, ...]
+    workspace: Region
+    default_goal_region: Region
+    success: Literal["lift", "region"]
+
+
+def _table() -> Surface:
+    """HERB's table: a 0.74 x 1.85 m top, 0.03 m thick, on four 0.05 m square legs.
+
+    Centred 1.0 m in front of the robot (HERB's usual set-up). The workspace is where the right
+    arm reaches with a horizontal side grasp from 12 cm back (measured with the IK): HERB's
+    sideways-mounted shoulders cannot point the hand forward closer than about x = 0.75 m.
+    """
+    top_z, thickness, leg, inset = 0.735, 0.03, 0.05, 0.03
+    x, y = (0.63, 1.37), (-1.125, 0.725)  # centred on (1.00, -0.20)
+    leg_x = ((x[0] + inset, x[0] + inset + leg), (x[1] - inset - leg, x[1] - inset))
+    leg_y = ((y[0] + inset, y[0] + inset + leg), (y[1] - inset - leg, y[1] - inset))
+    legs = tuple(
+        Box.from_bounds(lx, ly, (0.0, top_z - thickness), _DARK_WOOD)
+        for lx in leg_x
+        for ly in leg_y
+    )
+    return Surface(
+        name="table",
+        top_z=top_z,
+        bounds=(x[0], x[1], y[0], y[1]),
+        boxes=(Box.from_bounds(x, y, (top_z - thickness, top_z), _WOOD), *legs),
+        workspace=((0.78, 1.08), (-0.60, 0.15)),
+        # Success is lifting the goal object; it must be held above the table top, not
+        # carried off it, so the region is the whole top.
+        default_goal_region=(x, y),
+        success="lift",
+    )
+
+
+def _shelf() -> Surface:
+    """A shelf cubby open towards the robot, on a cabinet; the task is to bring the goal
+    object forward from the back, past the clutter, into the front strip."""
+    top_z, wall, clearance = 0.735, 0.02, 0.45
+    inner_x, inner_y = (0.72, 1.12), (-0.65, 0.25)
+    outer_x = (inner_x[0], inner_x[1] + wall)
+    outer_y = (inner_y[0] - wall, inner_y[1] + wall)
+    ceiling = top_z + clearance
+    return Surface(
+        name="shelf",
+        top_z=top_z,
+        bounds=(inner_x[0], inner_x[1], inner_y[0], inner_y[1]),
+        boxes=(
+            Box.from_bounds(outer_x, outer_y, (top_z - wall, top_z), _BOARD),
+            Box.from_bounds(outer_x, outer_y, (0.0, top_z - wall), _DARK_WOOD),
+            Box.from_bounds(outer_x, (outer_y[0], inner_y[0]), (top_z, ceiling), _WOOD),
+            Box.from_bounds(outer_x, (inner_y[1], outer_y[1]), (top_z, ceiling), _WOOD),
+            Box.from_bounds((inner_x[1], outer_x[1]), inner_y, (top_z, ceiling), _WOOD),
+            Box.from_bounds(outer_x, outer_y, (ceiling, ceiling + wall), _BOARD),
+        ),
+        workspace=((0.74, 1.10), (-0.63, 0.23)),  # the inner area shrunk by 0.02 m
+        default_goal_region=((0.72, 0.85), (-0.45, 0.05)),
+        success="region",
+    )
+
+
+TABLE = _table()
+SHELF = _shelf()
+SURFACES: dict[str, Surface] = {s.name: s for s in (TABLE, SHELF)}
+
+
+def get_surface(name: str) -> Surface:
+    """Look up a surface, naming the allowed surfaces when it is unknown."""
+    try:
+        return SURFACES[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown surface {name!r}; allowed: {', '.join(sorted(SURFACES))}"
+        ) from None

@@ -1,0 +1,294 @@
+"""ClutterRetrieve-v0 against the Gymnasium contract, determinism, bad input and the task rules."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import clutter_gym
+from agents.scripted import DirectGraspPolicy
+from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
+from clutter_gym.robot import herb_model as hm
+from clutter_gym.scene import scene_to_dict
+from planners.direct_grasp import approach_rotation
+
+CAN_SCENE = {
+    "format": "clutter-gym-scene/1",
+    "surface": "table",
+    "objects": [
+        {"name": "can", "kind": "soda_can", "pose": [0.95, -0.25, 0.0]},
+        {"name": "box", "kind": "poptart_box", "pose": [1.05, 0.0, 0.5]},
+    ],
+    "goal": {"object": "can"},
+    "noise": "sigma1",
+}
+
+
+def make(**kwargs: object) -> ClutterRetrieveEnv:
+    return gym.make("ClutterRetrieve-v0", **kwargs).unwrapped  # type: ignore[return-value]
+
+
+def hold_action(env: ClutterRetrieveEnv, obs: dict[str, np.ndarray]) -> np.ndarray:
+    """A trajectory that keeps the arm where it is: cheap and never touches anything."""
+    row = np.r_[obs["arm_joints"], 0.0, 0.0]
+    return np.tile(row, (env.action_space.shape[0], 1)).astype(np.float32)
+
+
+@pytest.mark.parametrize("env_id", clutter_gym.ENV_IDS)
+@pytest.mark.parametrize("control_mode", CONTROL_MODES)
+def test_gymnasium_checker(env_id: str, control_mode: str) -> None:
+    env = gym.make(env_id, control_mode=control_mode, level="none")
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.parametrize("control_mode", CONTROL_MODES)
+def test_stable_baselines3_checker(control_mode: str) -> None:
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = gym.make("ClutterRetrieve-v0", control_mode=control_mode, level="none")
+    sb3_check_env(env.unwrapped, warn=False)
+    env.close()
+
+
+def rollout_digest(seed: int, control_mode: str, steps: int) -> str:
+    """Hash of every observation, reward and info of a seeded rollout with seeded actions."""
+    env = gym.make("ClutterRetrieve-v0", control_mode=control_mode, level="high")
+    obs, info = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    digest = hashlib.sha256()
+
+    def feed(o: dict[str, np.ndarray], i: dict[str, object], r: float = 0.0) -> None:
+        for key in sorted(o):
+            digest.update(np.ascontiguousarray(o[key]).tobytes())
+        digest.update(np.asarray(i["true_object_poses"]).tobytes())
+        digest.update(np.float64(r).tobytes())
+
+    feed(obs, info)
+    for _ in range(steps):
+        if control_mode == "trajectory":
+            action = hold_action(env.unwrapped, obs)  # type: ignore[arg-type]
+            action[:, 7:] = env.action_space.sample()[:, 7:]
+        else:
+            action = env.action_space.sample()
+        obs, reward, terminated, truncated, info = env.step(action)
+        feed(obs, info, reward)
+        if terminated or truncated:
+            obs, info = env.reset()
+    env.close()
+    return digest.hexdigest()
+
+
+@pytest.mark.parametrize(("control_mode", "steps"), [("ee_delta", 40), ("trajectory", 2)])
+def test_same_seed_same_rollout_in_process(control_mode: str, steps: int) -> None:
+    assert rollout_digest(3, control_mode, steps) == rollout_digest(3, control_mode, steps)
+    assert rollout_digest(3, control_mode, steps) != rollout_digest(4, control_mode, steps)
+
+
+def test_same_seed_same_rollout_across_processes() -> None:
+    code = "from tests.test_env import rollout_digest; print(rollout_digest(7, 'ee_delta', 40))"
+    root = Path(__file__).resolve().parents[1]
+    other = (
+        subprocess.run(
+            [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True
+        )
+        .stdout.strip()
+        .splitlines()[-1]
+    )
+    assert other == rollout_digest(7, "ee_delta", 40)
+
+
+def test_async_vector_env() -> None:
+    envs = gym.make_vec(
+        "ClutterRetrieve-v0",
+        num_envs=2,
+        vectorization_mode="async",
+        control_mode="ee_delta",
+        level="medium",
+    )
+    obs, _ = envs.reset(seed=0)
+    assert obs["object_poses"].shape == (2, 8, 3)
+    obs, rewards, terminated, _, _ = envs.step(envs.action_space.sample())
+    assert rewards.shape == (2,) and terminated.dtype == np.bool_
+    envs.close()
+
+
+def test_render_headless_and_close_twice() -> None:
+    env = gym.make("ClutterRetrieve-v0", render_mode="rgb_array", level="medium")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (360, 480, 3) and frame.dtype == np.uint8
+    assert frame.std() > 10  # a scene, not a blank image
+    env.close()
+    env.close()
+
+
+def test_render_mode_none_returns_none() -> None:
+    env = make(level="none")
+    env.reset(seed=0)
+    assert env.render() is None
+    env.close()
+
+
+def test_detections_are_noisy_truth_only_in_info() -> None:
+    env = make(noise="sigma3")
+    obs, info = env.reset(seed=1, options={"scene": CAN_SCENE})
+    error = obs["object_poses"][:2, :2] - info["true_object_poses"][:2, :2]
+    assert np.all(np.abs(error) > 0) and np.all(np.abs(error) < 0.2)
+    assert obs["noise"].tolist() == pytest.approx([0.02, 0.175])
+    exact = make()
+    obs, info = exact.reset(seed=1, options={"scene": CAN_SCENE})  # the scene says sigma1
+    assert np.allclose(obs["object_poses"][:2], info["true_object_poses"][:2], atol=1e-5)
+    assert obs["object_mask"].tolist() == [1, 1, 0, 0, 0, 0, 0, 0]
+    assert obs["object_sizes"][0].tolist() == pytest.approx([0.066, 0.066, 0.122])
+    env.close()
+    exact.close()
+
+
+def test_reset_accepts_dict_path_and_rejects_bad_scenes(tmp_path: Path) -> None:
+    env = make()
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(CAN_SCENE))
+    _, from_dict = env.reset(seed=0, options={"scene": CAN_SCENE})
+    _, from_path = env.reset(seed=0, options={"scene": str(path)})
+    assert from_dict["object_names"] == from_path["object_names"] == ("can", "box")
+    bad = json.loads(json.dumps(CAN_SCENE))
+    bad["objects"][1]["kind"] = "teapot"
+    with pytest.raises(ValueError, match=r"objects\[1\]\.kind"):
+        env.reset(options={"scene": bad})
+    with pytest.raises(ValueError, match="allowed"):
+        env.reset(options={"scene": CAN_SCENE, "colour": "red"})
+    env.close()
+
+
+def test_sampled_scenes_follow_the_seed() -> None:
+    env = make(level="high")
+    _, a = env.reset(seed=5)
+    names_a = a["object_names"]
+    _, b = env.reset(seed=5)
+    assert names_a == b["object_names"]
+    assert np.array_equal(a["true_object_poses"], b["true_object_poses"])
+    assert 3 <= len(names_a) <= 4
+    assert scene_to_dict(env.scene)["surface"] == "table"
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"control_mode": "torque"}, "control_mode"),
+        ({"level": "extreme"}, "level"),
+        ({"surface": "floor"}, "surface"),
+        ({"noise": "sigma9"}, "noise"),
+        ({"noise": (-0.1, 0.0)}, "noise"),
+        ({"reward_type": "shaped"}, "reward_type"),
+        ({"render_mode": "rgb"}, "render_mode"),
+        ({"waypoints": 0}, "waypoints"),
+        ({"step_limit": 0}, "step_limit"),
+    ],
+)
+def test_bad_constructor_arguments_name_the_field(kwargs: dict[str, object], field: str) -> None:
+    with pytest.raises(ValueError, match=field):
+        gym.make("ClutterRetrieve-v0", **kwargs)
+
+
+@pytest.mark.parametrize("control_mode", CONTROL_MODES)
+def test_bad_actions_raise_and_leave_the_world_intact(control_mode: str) -> None:
+    env = make(control_mode=control_mode)
+    obs, info = env.reset(seed=0, options={"scene": CAN_SCENE})
+    good = hold_action(env, obs) if control_mode == "trajectory" else np.zeros(5, np.float32)
+    with pytest.raises(ValueError, match="shape"):
+        env.step(good[:-1])
+    nan = good.copy()
+    nan.flat[3] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        env.step(nan)
+    inf = good.copy()
+    inf.flat[0] = np.inf
+    with pytest.raises(ValueError, match="non-finite"):
+        env.step(inf)
+    assert env._sim_steps == info["sim_steps"]  # rejected before any physics ran
+    _, _, terminated, _, after = env.step(good)
+    assert not terminated and after["sim_steps"] > info["sim_steps"]
+    assert np.allclose(after["true_object_poses"], info["true_object_poses"], atol=1e-3)
+    env.close()
+
+
+def test_out_of_limit_waypoints_are_clipped_and_reported() -> None:
+    env = make()
+    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
+    action = hold_action(env, obs)
+    action[:, 7:] = 1.7  # hand command above 1
+    _, _, _, _, info = env.step(action)
+    assert info["action_clipped"]
+    assert env.herb.hand_state()[1] == pytest.approx(hm.HAND_PROXIMAL_RANGE[1], abs=0.1)
+    env.close()
+
+
+def test_direct_grasp_lifts_the_can_by_finger_contact() -> None:
+    env = make()
+    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
+    policy = DirectGraspPolicy(env.action_space.shape[0], surface_z=0.735)
+    obs, reward, terminated, truncated, info = env.step(policy(obs))
+    assert policy.failure == ""
+    assert info["is_success"] and terminated and not truncated and reward == 1.0
+    assert info["goal_held"] and info["goal_lift"] >= 0.10
+    assert env.sim.client.getNumConstraints() == 0  # held by friction, never attached
+
+
+def test_arm_striking_the_table_terminates_with_failure() -> None:
+    env = make()
+    env.reset(seed=0, options={"scene": CAN_SCENE})
+    below_top = np.eye(4)
+    below_top[:3, :3] = approach_rotation(np.array([1.0, 0.0, 0.0]))
+    below_top[:3, 3] = (0.95, 0.15, 0.70)  # 3.5 cm under the table top, clear of the objects
+    q = env.kinematics.solve_ik(below_top, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    assert q is not None
+    action = np.tile(np.r_[q, 0.0, 0.0], (env.action_space.shape[0], 1)).astype(np.float32)
+    _, reward, terminated, _, info = env.step(action)
+    assert terminated and reward == -1.0
+    assert info["failure"] == "robot struck the table"
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(action)
+    env.close()
+
+
+def test_toppled_object_is_a_failure() -> None:
+    env = make()
+    env.reset(seed=0, options={"scene": CAN_SCENE})
+    client = env.sim.client
+    lying = client.getQuaternionFromEuler([np.pi / 2, 0.0, 0.0])
+    client.resetBasePositionAndOrientation(env.sim.body("box"), [1.05, 0.0, 0.8], lying)
+    env.sim.step(60)
+    outcome = env._task.evaluate()
+    assert outcome.failure == "box toppled" and not outcome.success
+    env.close()
+
+
+def test_truncation_at_step_limit() -> None:
+    env = make(step_limit=2)
+    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
+    results = [env.step(hold_action(env, obs))[2:4] for _ in range(2)]
+    assert results == [(False, False), (False, True)]
+    env.close()
+
+
+def test_hand_distal_joints_follow_proximal() -> None:
+    env = make()
+    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
+    action = hold_action(env, obs)
+    action[:, 8] = 0.6
+    env.step(action)
+    states = env.sim.client.getJointStates(env.herb.body_id, env.herb.hand)
+    prox, dist = np.array([s[0] for s in states[2:5]]), np.array([s[0] for s in states[5:8]])
+    assert prox == pytest.approx(0.6 * hm.HAND_PROXIMAL_RANGE[1], abs=0.05)
+    assert dist == pytest.approx(prox * hm.HAND_DISTAL_COUPLING, abs=0.05)
+    env.close()
