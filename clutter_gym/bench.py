@@ -58,6 +58,7 @@ def bench_trajectory(steps: int, seed: int = 0) -> dict[str, float]:
     rng = np.random.default_rng(seed)
     home = np.asarray(hm.RIGHT_ARM_HOME)
     shape = env.action_space.shape
+    assert shape is not None
     env.reset(seed=seed)
     elapsed, physics = 0.0, 0
     try:

@@ -14,6 +14,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from clutter_gym.media import write_json, write_png
 from clutter_gym.scene import LEVELS, generate_scene, load_scene, save_scene, scene_to_dict
 from clutter_gym.world import SURFACES
@@ -53,6 +55,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         frame = env.render()
     finally:
         env.close()
+    assert isinstance(frame, np.ndarray)
     write_png(Path(args.out), frame)
     print(f"wrote {args.out}")
     return 0

@@ -36,6 +36,7 @@ EE_STEP = 0.01
 YAW_STEP = 0.05
 EE_SUBSTEPS = 10
 EE_IK_ITERATIONS = 15  # a 1 cm step converges in a few; more only burns time on unreachable ones
+EE_IK_TOLERANCE = (1e-3, 1e-2)  # m, rad: the next target starts from the measured TCP anyway
 TRAJECTORY_COLUMNS = 9  # 7 joints + spread + closure
 
 Substep = Callable[[], bool]
@@ -143,7 +144,9 @@ class EndEffectorDeltaController:
         c, s = math.cos(YAW_STEP * clipped[3]), math.sin(YAW_STEP * clipped[3])
         yaw = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         target[:3, :3] = yaw @ self._target_rotation
-        solution = self.kinematics.solve_ik_local(target, q, max_iter=EE_IK_ITERATIONS)
+        solution = self.kinematics.solve_ik_local(
+            target, q, EE_IK_ITERATIONS, pos_tol=EE_IK_TOLERANCE[0], rot_tol=EE_IK_TOLERANCE[1]
+        )
         if solution is not None:  # unreachable: hold the last reachable target
             self._q_target = solution
             self._target_rotation = target[:3, :3]

@@ -39,16 +39,18 @@ from clutter_gym.robot.kinematics import ArmKinematics
 from clutter_gym.scene import (
     LEVELS,
     MAX_OBJECTS,
+    Level,
     Scene,
     generate_scene,
     load_scene,
     resolve_noise,
 )
 from clutter_gym.sim import Camera, Simulator
-from clutter_gym.task import REWARD_TYPES, RetrievalTask, RewardType
+from clutter_gym.task import REWARD_TYPES, Outcome, RetrievalTask, RewardType
 from clutter_gym.world import SURFACES, get_surface
 
 OBJECT_KINDS = tuple(OBJECTS)
+Observation = dict[str, Any]  # ndarrays, and np.int64 for the Discrete entries
 ControlMode = Literal["trajectory", "ee_delta"]
 CONTROL_MODES: tuple[ControlMode, ...] = ("trajectory", "ee_delta")
 DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
@@ -57,7 +59,7 @@ SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on th
 MONITOR_EVERY = 8  # physics steps between task checks while a trajectory executes
 
 
-class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
 
     def __init__(
@@ -65,7 +67,7 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         render_mode: str | None = None,
         control_mode: ControlMode = "trajectory",
         waypoints: int = 16,
-        level: str | None = None,
+        level: Level | None = None,
         surface: str = "table",
         noise: str | tuple[float, float] | None = None,
         reward_type: RewardType = "sparse",
@@ -93,7 +95,7 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
         self.sim = Simulator()
         self.kinematics = ArmKinematics("right")
-        self._waypoints = waypoints
+        self.waypoints = waypoints
         self._max_hand_speed = max_hand_speed
         self._build_world(generate_scene("none", seed=0, surface=surface))
         self.action_space = self._controller.action_space
@@ -109,7 +111,7 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     # --- gymnasium API ----------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    ) -> tuple[Observation, dict[str, Any]]:
         super().reset(seed=seed)
         options = options or {}
         unknown = set(options) - {"scene", "level"}
@@ -120,7 +122,7 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         elif options.get("scene") is not None:
             scene = load_scene(options["scene"])
         else:
-            level = options.get("level", self.level)
+            level: Level | None = options.get("level", self.level)
             _check_choice("options['level']", level, (None, *LEVELS))
             if level is None:
                 level = LEVELS[int(self.np_random.integers(len(LEVELS)))]
@@ -130,11 +132,11 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._build_world(scene)
         self._steps = 0
         self._ended = False
-        return self._observation(), self._info(clipped=False)
+        true_poses = self._true_poses()
+        outcome = self._task.evaluate()
+        return self._observation(true_poses), self._info(outcome, true_poses, clipped=False)
 
-    def step(
-        self, action: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         if self._ended:
             raise RuntimeError("step() after the episode ended: call reset() first")
         clipped = self._controller.execute(action, self._substep)
@@ -144,7 +146,14 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         terminated = bool(outcome.done)
         truncated = bool(not terminated and self._steps >= self.step_limit)
         self._ended = terminated or truncated
-        return self._observation(), float(reward), terminated, truncated, self._info(clipped)
+        true_poses = self._true_poses()
+        return (
+            self._observation(true_poses),
+            float(reward),
+            terminated,
+            truncated,
+            self._info(outcome, true_poses, clipped),
+        )
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
@@ -186,12 +195,15 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             )
         self.herb.reset(np.asarray(hm.RIGHT_ARM_HOME), HandCommand())
         self.sim.step(SETTLE_STEPS)
+        for placement in scene.objects:
+            self.sim.sleep(placement.name)
         self._sim_steps = 0
         self._sigma = self.noise_override or resolve_noise(scene.noise)
+        self._static_obs = self._scene_observation()
         self._task = RetrievalTask(self.sim, self.herb, scene, self._surface, self._specs)
         if self.control_mode == "trajectory":
             traj = TrajectoryController(
-                self.herb, self.kinematics, self._waypoints, self._max_hand_speed, self.sim.timestep
+                self.herb, self.kinematics, self.waypoints, self._max_hand_speed, self.sim.timestep
             )
             traj.reset(HandCommand())
             self._controller: TrajectoryController | EndEffectorDeltaController = traj
@@ -207,7 +219,9 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self._frames.append(self.sim.render(self.camera))
             if self._on_frame is not None:
                 self._on_frame(self._sim_steps)
-        if self._sim_steps % MONITOR_EVERY:
+        # Long trajectories stop early once the episode is decided; an ee_delta step is only
+        # 10 physics steps and is evaluated at its end.
+        if self.control_mode != "trajectory" or self._sim_steps % MONITOR_EVERY:
             return False
         return self._task.evaluate().done
 
@@ -223,16 +237,9 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             )
         return poses
 
-    def _observation(self) -> dict[str, np.ndarray]:
+    def _scene_observation(self) -> Observation:
+        """The parts of the observation fixed for an episode, computed once per reset."""
         m = MAX_OBJECTS
-        n = len(self._scene.objects)
-        q, dq = self.herb.arm_state()
-        tcp_pos, tcp_quat = self.herb.tcp_pose()
-        poses = np.zeros((m, 3), dtype=np.float32)
-        # Clipped only so that absurd custom noise levels stay inside the observation space.
-        poses[:n] = np.clip(
-            detect(self._true_poses(), self._sigma, self.np_random), -WORLD_REACH, WORLD_REACH
-        )
         sizes = np.zeros((m, 3), dtype=np.float32)
         kinds = np.zeros(m, dtype=np.int64)
         mask = np.zeros(m, dtype=np.int8)
@@ -244,11 +251,6 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             mask[i] = 1
         (x_lo, x_hi), (y_lo, y_hi) = self._scene.goal.region
         return {
-            "arm_joints": q.astype(np.float32),
-            "arm_velocities": np.clip(dq, -10.0, 10.0).astype(np.float32),
-            "hand": self.herb.hand_state().astype(np.float32),
-            "tcp_pose": np.r_[tcp_pos, tcp_quat].astype(np.float32),
-            "object_poses": poses,
             "object_sizes": sizes,
             "object_kinds": kinds,
             "object_mask": mask,
@@ -258,16 +260,33 @@ class ClutterRetrieveEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "surface": np.int64(list(SURFACES).index(self._scene.surface)),
         }
 
-    def _info(self, clipped: bool) -> dict[str, Any]:
-        outcome = self._task.evaluate()
-        true_poses = np.zeros((MAX_OBJECTS, 3))
-        true_poses[: len(self._scene.objects)] = self._true_poses()
+    def _observation(self, true_poses: np.ndarray) -> Observation:
+        q, dq = self.herb.arm_state()
+        tcp_pos, tcp_quat = self.herb.tcp_pose()
+        poses = np.zeros((MAX_OBJECTS, 3), dtype=np.float32)
+        # Clipped only so that absurd custom noise levels stay inside the observation space.
+        poses[: len(true_poses)] = np.clip(
+            detect(true_poses, self._sigma, self.np_random), -WORLD_REACH, WORLD_REACH
+        )
+        obs = {
+            "arm_joints": q.astype(np.float32),
+            "arm_velocities": np.clip(dq, -10.0, 10.0).astype(np.float32),
+            "hand": self.herb.hand_state().astype(np.float32),
+            "tcp_pose": np.r_[tcp_pos, tcp_quat].astype(np.float32),
+            "object_poses": poses,
+        }
+        obs.update({key: value.copy() for key, value in self._static_obs.items()})
+        return obs
+
+    def _info(self, outcome: Outcome, true_poses: np.ndarray, clipped: bool) -> dict[str, Any]:
+        padded = np.zeros((MAX_OBJECTS, 3))
+        padded[: len(true_poses)] = true_poses
         return {
             "is_success": bool(outcome.success),
             "failure": outcome.failure,
             "goal_held": bool(outcome.goal_held),
             "goal_lift": float(outcome.goal_lift),
-            "true_object_poses": true_poses,
+            "true_object_poses": padded,
             "object_names": tuple(o.name for o in self._scene.objects),
             "sim_steps": int(self._sim_steps),
             "action_clipped": bool(clipped),

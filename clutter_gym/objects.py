@@ -244,7 +244,9 @@ class ObjectSpec:
 
         Primitives only touch, never overlap, so concatenation is their union.
         """
-        return trimesh.util.concatenate([p.mesh() for p in self.primitives])
+        mesh = trimesh.util.concatenate([p.mesh() for p in self.primitives])
+        assert isinstance(mesh, trimesh.Trimesh)
+        return mesh
 
     def fcl_objects(self, pose: Pose, surface_z: float) -> list[fcl.CollisionObject]:
         """One fcl object per primitive, placed at ``pose`` on a surface whose top is

@@ -55,8 +55,8 @@ from clutter_gym.world import SURFACES, Region, Surface
 
 SCENE_FORMAT = "clutter-gym-scene/1"
 MAX_OBJECTS = 8
-LEVELS = ("none", "medium", "high")
 Level = Literal["none", "medium", "high"]
+LEVELS: tuple[Level, ...] = ("none", "medium", "high")
 Success = Literal["lift", "region"]
 SUCCESS_MODES: tuple[Success, ...] = ("lift", "region")
 

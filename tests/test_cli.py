@@ -1,0 +1,74 @@
+"""The clutter-gym command line: each command's output, and clear errors on bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from clutter_gym.cli import main
+from clutter_gym.scene import generate_scene, load_scene
+
+
+def test_scene_command_writes_the_generated_scene(tmp_path: Path) -> None:
+    out = tmp_path / "scene.json"
+    assert main(["scene", "--level", "high", "--seed", "3", "--out", str(out)]) == 0
+    assert load_scene(out) == generate_scene("high", seed=3)
+
+
+def test_render_command_writes_a_png(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.json"
+    png = tmp_path / "scene.png"
+    main(["scene", "--level", "medium", "--seed", "1", "--out", str(scene)])
+    assert main(["render", "--scene", str(scene), "--out", str(png)]) == 0
+    with Image.open(png) as image:
+        assert image.size == (480, 360)
+
+
+def test_bad_scene_file_is_one_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = tmp_path / "scene.json"
+    main(["scene", "--level", "none", "--seed", "0", "--out", str(scene)])
+    data = json.loads(scene.read_text())
+    data["objects"][0]["pose"] = [0.9, "left", 0.0]
+    scene.write_text(json.dumps(data))
+    assert main(["render", "--scene", str(scene), "--out", str(tmp_path / "x.png")]) == 2
+    assert "objects[0].pose[1]" in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_unknown_level_lists_the_choices(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["scene", "--level", "extreme", "--seed", "0", "--out", "x.json"])
+    assert "none" in capsys.readouterr().err
+
+
+def test_demo_retrieves_the_can_and_writes_gif_and_summary(tmp_path: Path) -> None:
+    assert main(["demo", "--out-dir", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "demo.json").read_text())
+    assert summary["success"] and summary["goal_held"] and summary["goal_lift_m"] >= 0.10
+    with Image.open(tmp_path / "demo.gif") as gif:
+        assert gif.n_frames == summary["frames"] > 50
+
+
+def test_bench_env_writes_json(tmp_path: Path) -> None:
+    out = tmp_path / "bench.json"
+    argv = ["bench", "env", "--steps", "30", "--trajectory-steps", "1", "--resets", "5"]
+    assert main([*argv, "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    for key in ("low_level_steps_per_s", "trajectory_steps_per_s", "reset_ms", "rss_growth_mb"):
+        assert result[key] > 0 or key == "rss_growth_mb"
+    assert result["resets"] == 5
+
+
+def test_console_script_is_installed() -> None:
+    exe = shutil.which("clutter-gym")
+    assert exe is not None
+    help_text = subprocess.run([exe, "--help"], capture_output=True, text=True, check=True).stdout
+    for command in ("demo", "scene", "render", "bench"):
+        assert command in help_text
