@@ -50,6 +50,7 @@ from typing import Any, Literal
 import fcl
 import numpy as np
 
+from clutter_gym.files import atomic_write_text
 from clutter_gym.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
 from clutter_gym.world import SURFACES, Region, Surface
 
@@ -424,14 +425,7 @@ def load_scene(source: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
 
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:
     """Write a scene as JSON atomically, so readers never see a half-written file."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_text(scene_to_json(scene))
-        os.replace(temporary, target)
-    finally:
-        temporary.unlink(missing_ok=True)
+    atomic_write_text(Path(path), scene_to_json(scene))
 
 
 # --- generation ---------------------------------------------------------------------------

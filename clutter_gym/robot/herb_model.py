@@ -13,13 +13,13 @@ lets ``clutter_gym.robot.kinematics`` reproduce pybullet's forward kinematics ex
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+
+from clutter_gym.files import atomic_write_text, cache_dir
 
 PI = float(np.pi)
 SIDES: tuple[str, str] = ("left", "right")
@@ -513,11 +513,6 @@ def herb_urdf(parked: Mapping[str, float] | None = None) -> str:
     return "\n".join(parts) + "\n"
 
 
-def _default_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "clutter_gym"
-
-
 def write_herb_urdf(
     directory: Path | None = None, parked: Mapping[str, float] | None = None
 ) -> Path:
@@ -528,17 +523,7 @@ def write_herb_urdf(
     """
     text = herb_urdf(parked)
     digest = hashlib.sha256(text.encode()).hexdigest()[:12]
-    directory = Path(directory) if directory is not None else _default_cache_dir()
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / f"herb_{digest}.urdf"
-    if path.is_file() and path.read_text() == text:
-        return path
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".herb_", suffix=".urdf.tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    path = (Path(directory) if directory is not None else cache_dir()) / f"herb_{digest}.urdf"
+    if not (path.is_file() and path.read_text() == text):
+        atomic_write_text(path, text)
     return path
