@@ -46,6 +46,7 @@ class Simulator:
         self.timestep = timestep
         self.solver_iterations = solver_iterations
         self._bodies: dict[str, int] = {}
+        self._inertial: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {}
         self.clear()
 
     @property
@@ -65,6 +66,7 @@ class Simulator:
         )
         c.setGravity(0.0, 0.0, GRAVITY)
         self._bodies = {}
+        self._inertial = {}
 
     def close(self) -> None:
         if self._client is not None:
@@ -88,7 +90,7 @@ class Simulator:
             useFixedBase=fixed_base,
             flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
         )
-        self._bodies[name] = body_id
+        self._register(name, body_id)
         return body_id
 
     def add_static_boxes(self, name: str, boxes: Sequence[Box]) -> int:
@@ -108,7 +110,7 @@ class Simulator:
             rgbaColors=[list(b.rgba) for b in boxes],
         )
         body_id = c.createMultiBody(0.0, col, vis, [0.0, 0.0, 0.0])
-        self._bodies[name] = body_id
+        self._register(name, body_id)
         return body_id
 
     def add_object(
@@ -152,8 +154,13 @@ class Simulator:
             # clutter otherwise costs ~40 us per physics step (measured, high clutter).
             activationState=pybullet.ACTIVATION_STATE_ENABLE_SLEEPING,
         )
-        self._bodies[name] = body_id
+        self._register(name, body_id)
         return body_id
+
+    def _register(self, name: str, body_id: int) -> None:
+        self._bodies[name] = body_id
+        info = self.client.getDynamicsInfo(body_id, -1)
+        self._inertial[name] = (info[3], info[4])
 
     def sleep(self, name: str) -> None:
         """Put a resting body to sleep now rather than after Bullet's 2 s of rest; contact with
@@ -169,9 +176,24 @@ class Simulator:
             step()
 
     def base_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """Position (3,) and quaternion (x, y, z, w) of a body's base frame."""
-        pos, quat = self.client.getBasePositionAndOrientation(self.body(name))
+        """Position (3,) and quaternion (x, y, z, w) of a body's base frame.
+
+        pybullet reports the base's centre of mass; this converts to the body's own frame
+        (for objects: the centre of the base, on the surface).
+        """
+        c = self.client
+        com_pos, com_quat = c.getBasePositionAndOrientation(self.body(name))
+        inertial_pos, inertial_quat = self._inertial[name]
+        pos, quat = c.multiplyTransforms(
+            com_pos, com_quat, *c.invertTransform(inertial_pos, inertial_quat)
+        )
         return np.array(pos), np.array(quat)
+
+    def set_base_pose(self, name: str, position: Sequence[float], quat: Sequence[float]) -> None:
+        """Teleport a body's base frame (tests and resets only, never during an episode)."""
+        c = self.client
+        com_pos, com_quat = c.multiplyTransforms(position, quat, *self._inertial[name])
+        c.resetBasePositionAndOrientation(self.body(name), com_pos, com_quat)
 
     def base_velocity(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         lin, ang = self.client.getBaseVelocity(self.body(name))

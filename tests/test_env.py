@@ -264,9 +264,8 @@ def test_arm_striking_the_table_terminates_with_failure() -> None:
 def test_toppled_object_is_a_failure() -> None:
     env = make()
     env.reset(seed=0, options={"scene": CAN_SCENE})
-    client = env.sim.client
-    lying = client.getQuaternionFromEuler([np.pi / 2, 0.0, 0.0])
-    client.resetBasePositionAndOrientation(env.sim.body("box"), [1.05, 0.0, 0.8], lying)
+    lying = env.sim.client.getQuaternionFromEuler([np.pi / 2, 0.0, 0.0])
+    env.sim.set_base_pose("box", [1.05, 0.0, 0.8], lying)
     env.sim.step(60)
     outcome = env._task.evaluate()
     assert outcome.failure == "box toppled" and not outcome.success
@@ -291,4 +290,38 @@ def test_hand_distal_joints_follow_proximal() -> None:
     prox, dist = np.array([s[0] for s in states[2:5]]), np.array([s[0] for s in states[5:8]])
     assert prox == pytest.approx(0.6 * hm.HAND_PROXIMAL_RANGE[1], abs=0.05)
     assert dist == pytest.approx(prox * hm.HAND_DISTAL_COUPLING, abs=0.05)
+    env.close()
+
+
+def test_shelf_goal_brought_into_the_region_is_a_success() -> None:
+    env = make(surface="shelf", level="medium")
+    _, info = env.reset(seed=4)
+    goal = env.scene.goal.object
+    (x_lo, x_hi), (y_lo, y_hi) = env.scene.goal.region
+    assert not info["is_success"]
+    others = [p.pose for p in env.scene.objects if p.name != goal]
+    # A free spot in the front strip (the generator keeps clutter out of it at this seed).
+    spot = min(
+        (
+            (x, y)
+            for x in np.linspace(x_lo + 0.05, x_hi - 0.05, 3)
+            for y in np.linspace(y_lo + 0.05, y_hi - 0.05, 9)
+        ),
+        key=lambda s: -min(np.hypot(s[0] - p[0], s[1] - p[1]) for p in others),
+    )
+    env.sim.set_base_pose(goal, [spot[0], spot[1], env._surface.top_z], [0.0, 0.0, 0.0, 1.0])
+    env.sim.step(24)
+    outcome = env._task.evaluate()
+    assert outcome.success and not outcome.failure
+    env.close()
+
+
+def test_dense_reward_is_minus_the_scaled_hand_to_goal_distance() -> None:
+    env = make(reward_type="dense")
+    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
+    _, reward, _, _, info = env.step(hold_action(env, obs))
+    tcp = env.herb.tcp_pose()[0]
+    can = info["true_object_poses"][0]
+    centre = np.array([can[0], can[1], 0.735 + 0.061])
+    assert reward == pytest.approx(-0.1 * np.linalg.norm(tcp - centre), abs=1e-3)
     env.close()
