@@ -56,6 +56,10 @@ CONTROL_MODES: tuple[ControlMode, ...] = ("trajectory", "ee_delta")
 DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
 WORLD_REACH = 5.0  # m: bounds every position in the world, so the observation spaces are finite
 SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on the surface
+RESET_OPTIONS = ("scene", "level", "arm", "hand")
+"""reset(options=...): scene (Scene, dict or JSON path), level (for a sampled scene), arm (7
+start joint angles, default HERB's home; must not touch anything, or reset's info reports the
+failure) and hand ((spread, closure) start command, default open)."""
 MONITOR_EVERY = 8  # physics steps between task checks while a trajectory executes
 
 
@@ -97,7 +101,11 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         self.kinematics = ArmKinematics("right")
         self.waypoints = waypoints
         self._max_hand_speed = max_hand_speed
-        self._build_world(generate_scene("none", seed=0, surface=surface))
+        self._build_world(
+            generate_scene("none", seed=0, surface=surface),
+            np.asarray(hm.RIGHT_ARM_HOME),
+            HandCommand(),
+        )
         self.action_space = self._controller.action_space
         self.observation_space = _observation_space(MAX_OBJECTS)
 
@@ -114,9 +122,9 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     ) -> tuple[Observation, dict[str, Any]]:
         super().reset(seed=seed)
         options = options or {}
-        unknown = set(options) - {"scene", "level"}
+        unknown = set(options) - set(RESET_OPTIONS)
         if unknown:
-            raise ValueError(f"options: unknown keys {sorted(unknown)}; allowed: 'scene', 'level'")
+            raise ValueError(f"options: unknown keys {sorted(unknown)}; allowed: {RESET_OPTIONS}")
         if isinstance(options.get("scene"), Scene):
             scene = options["scene"]
         elif options.get("scene") is not None:
@@ -129,7 +137,9 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
             scene = generate_scene(
                 level, seed=int(self.np_random.integers(2**31)), surface=self.surface_name
             )
-        self._build_world(scene)
+        arm = self._start_arm(options.get("arm"))
+        hand = self._start_hand(options.get("hand"))
+        self._build_world(scene, arm, hand)
         self._steps = 0
         self._ended = False
         true_poses = self._true_poses()
@@ -182,7 +192,32 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     def scene(self) -> Scene:
         return self._scene
 
-    def _build_world(self, scene: Scene) -> None:
+    def _start_arm(self, arm: object) -> np.ndarray:
+        if arm is None:
+            return np.asarray(hm.RIGHT_ARM_HOME, dtype=np.float64)
+        q = np.asarray(arm, dtype=np.float64)
+        if q.shape != (7,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"options['arm']: {arm!r}; expected 7 finite joint angles (rad)")
+        lower, upper = self.kinematics.lower, self.kinematics.upper
+        for i in np.flatnonzero((q < lower) | (q > upper)):
+            raise ValueError(
+                f"options['arm'][{i}]: {q[i]:.4f} rad is outside the joint range "
+                f"[{lower[i]:.4f}, {upper[i]:.4f}]"
+            )
+        return q
+
+    @staticmethod
+    def _start_hand(hand: object) -> HandCommand:
+        if hand is None:
+            return HandCommand()
+        values = np.asarray(hand, dtype=np.float64)
+        if values.shape != (2,) or not np.all((values >= 0.0) & (values <= 1.0)):
+            raise ValueError(
+                f"options['hand']: {hand!r}; expected (spread, closure), each in [0, 1]"
+            )
+        return HandCommand(spread=float(values[0]), closure=float(values[1]))
+
+    def _build_world(self, scene: Scene, arm: np.ndarray, hand: HandCommand) -> None:
         self.sim.clear()
         self._scene = scene
         self._surface = get_surface(scene.surface)
@@ -193,7 +228,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
             self.sim.add_object(
                 placement.name, self._specs[placement.name], placement.pose, self._surface.top_z
             )
-        self.herb.reset(np.asarray(hm.RIGHT_ARM_HOME), HandCommand())
+        self.herb.reset(arm, hand)
         self.sim.step(SETTLE_STEPS)
         for placement in scene.objects:
             self.sim.sleep(placement.name)
@@ -205,11 +240,11 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
             traj = TrajectoryController(
                 self.herb, self.kinematics, self.waypoints, self._max_hand_speed, self.sim.timestep
             )
-            traj.reset(HandCommand())
+            traj.reset(hand)
             self._controller: TrajectoryController | EndEffectorDeltaController = traj
         else:
             ee = EndEffectorDeltaController(self.herb, self.kinematics)
-            ee.reset(np.asarray(hm.RIGHT_ARM_HOME))
+            ee.reset(arm)
             self._controller = ee
 
     def _substep(self) -> bool:

@@ -325,3 +325,19 @@ def test_dense_reward_is_minus_the_scaled_hand_to_goal_distance() -> None:
     centre = np.array([can[0], can[1], 0.735 + 0.061])
     assert reward == pytest.approx(-0.1 * np.linalg.norm(tcp - centre), abs=1e-3)
     env.close()
+
+
+def test_reset_can_start_from_a_given_arm_and_hand() -> None:
+    env = make()
+    q = np.array(hm.RIGHT_ARM_HOME) + 0.1
+    obs, info = env.reset(seed=0, options={"scene": CAN_SCENE, "arm": q, "hand": (0.0, 0.4)})
+    assert obs["arm_joints"] == pytest.approx(q, abs=2e-3)
+    assert obs["hand"][1] == pytest.approx(0.4 * hm.HAND_PROXIMAL_RANGE[1], abs=0.02)
+    assert info["failure"] == ""
+    bad = q.copy()
+    bad[1] = 3.0
+    with pytest.raises(ValueError, match=r"options\['arm'\]\[1\]: 3.0000 rad is outside"):
+        env.reset(options={"scene": CAN_SCENE, "arm": bad})
+    with pytest.raises(ValueError, match=r"options\['hand'\]"):
+        env.reset(options={"scene": CAN_SCENE, "hand": (0.0, 1.5)})
+    env.close()
