@@ -72,6 +72,37 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_validate_capture(args: argparse.Namespace) -> int:
+    from agents.validate_capture import validate
+
+    rotations = [float(r) for r in args.rotations.split(",")]
+    report = validate(args.object, args.trials, Path(args.json), rotations, args.workers)
+    for rotation in rotations:
+        print(
+            json.dumps(
+                {
+                    "object": report["object"],
+                    "rotation_deg": rotation,
+                    **{
+                        k: v
+                        for k, v in report[f"rotation_{rotation:g}deg"].items()
+                        if k != "failures_inside_examples"
+                    },
+                }
+            )
+        )
+    return 0
+
+
+def _cmd_capture_region(args: argparse.Namespace) -> int:
+    from agents.capture_figure import capture_figure
+
+    validation = Path(args.validation) if args.validation else None
+    capture_figure(args.object, Path(args.out), validation)
+    print(f"wrote {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="clutter-gym",
@@ -98,6 +129,22 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--scene", required=True)
     render.add_argument("--out", required=True)
     render.set_defaults(func=_cmd_render)
+
+    validate = sub.add_parser(
+        "validate-capture", help="push-grasp capture region vs pybullet physics (paper Fig. 11)"
+    )
+    validate.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
+    validate.add_argument("--trials", type=int, default=1000, help="grid poses per rotation")
+    validate.add_argument("--json", required=True)
+    validate.add_argument("--rotations", default="0,45", help="scene rotations in degrees")
+    validate.add_argument("--workers", type=int, default=2)
+    validate.set_defaults(func=_cmd_validate_capture)
+
+    figure = sub.add_parser("capture-region", help="plot a push-grasp capture region")
+    figure.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
+    figure.add_argument("--out", required=True)
+    figure.add_argument("--validation", default=None, help="JSON of clutter-gym validate-capture")
+    figure.set_defaults(func=_cmd_capture_region)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
     bench.add_argument("target", choices=("env",))

@@ -1,0 +1,215 @@
+"""The BH-280's 2D cross-section at pushing height, for the planar pushing model.
+
+Why: capture regions are computed in 2D against the hand as an object sees it when the hand
+moves parallel to the support with its finger plane horizontal (the push-grasp of the paper,
+§2.2.1, and HERB's side approach in `planners.direct_grasp`). Every number comes from
+`clutter_gym.robot.herb_model`.
+
+Geometry (finger plane = pushing plane; a finger's coordinates are u, outward from the hand
+axis, and z, forward along the approach axis from ``hand_base``):
+
+* Palm: the cylinder of radius HAND_PALM_RADIUS along the approach axis seen from the side, a
+  rectangle z in [0, HAND_PALM_HEIGHT], |u| <= HAND_PALM_RADIUS; in front of it the knuckle
+  boxes, z in [K - D3, K + D3], |u| <= A1 (K = HAND_KNUCKLE_HEIGHT, D3 = HAND_D3). The palm's
+  front edge for pushing is therefore z = K + D3.
+* Fingers: F1 and F2 sit at x = -+HAND_AW, above and below the pushing plane; at spread 0 both
+  project onto the same side (u < 0 in the hand), F3 onto the other. Each side is a proximal
+  box from (A1, K) of length A2 at angle q from the palm plane, a distal box of length A3 at
+  q + q_d + HAND_DISTAL_BEND (q_d = q * HAND_DISTAL_COUPLING, as `clutter_gym.robot.herb`
+  drives it), all 2 * D3 thick, and a cylindrical fingertip of radius D3 at the distal end.
+* Aperture a: the distance between the inner surfaces of the two fingertips,
+  a = 2 (u_tip(q) - D3). It is used for proximal angles from the one at which the distal
+  link points straight forward (the widest aperture at which the fingertips are still the
+  innermost part of the fingers, `MAX_APERTURE`, about 0.19 m) to the closed tips (a = 0).
+  The env commands it as the hand closure ``closure_for_aperture(a)`` = q / proximal range.
+
+2D frames: the push-grasp frame has x along the approach (push) direction, origin on the hand
+axis at ``hand_base``, y to the left seen from above, angles counter-clockwise; the profile
+is symmetric, so which finger side is which does not matter. The sweep frame (paper §2.1.6,
+Fig. 7) is that frame turned +90 degrees: x (the sweep direction) points to the hand's right
+(-y), y along the approach axis. The sweep pushes with the outer side of the right-hand
+finger and, toward the arm, a straight plate flush with the palm ending at the wrist link's end
+(HAND_MOUNT_XYZ behind ``hand_base``). A sweep to the left is the mirror image: mirror the
+scene across the approach axis (y -> -y, theta -> -theta in the hand frame).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from clutter_gym.objects import Footprint
+from clutter_gym.robot import herb_model as hm
+from planners.pushing import Circle, ConvexPolygon, Pusher, rectangle
+
+_D3 = hm.HAND_D3
+_K = hm.HAND_KNUCKLE_HEIGHT
+
+
+@dataclass(frozen=True)
+class FingerPose:
+    """One finger side in (u, z) finger-plane coordinates for proximal angle ``proximal``."""
+
+    proximal: float
+    distal: float
+    base: tuple[float, float]  # proximal joint
+    joint: tuple[float, float]  # distal joint
+    tip: tuple[float, float]  # fingertip cylinder centre
+
+
+def distal_angle(proximal: float) -> float:
+    """The distal joint angle the hand controller couples to a proximal angle."""
+    return min(proximal * hm.HAND_DISTAL_COUPLING, hm.HAND_DISTAL_RANGE[1])
+
+
+def finger_pose(proximal: float) -> FingerPose:
+    lo, hi = hm.HAND_PROXIMAL_RANGE
+    if not lo <= proximal <= hi:
+        raise ValueError(f"proximal angle {proximal!r} outside the joint range [{lo}, {hi}] rad")
+    qd = distal_angle(proximal)
+    base = (hm.HAND_A1, _K)
+    joint = (base[0] + hm.HAND_A2 * math.cos(proximal), base[1] + hm.HAND_A2 * math.sin(proximal))
+    phi = proximal + qd + hm.HAND_DISTAL_BEND
+    tip = (joint[0] + hm.HAND_A3 * math.cos(phi), joint[1] + hm.HAND_A3 * math.sin(phi))
+    return FingerPose(proximal, qd, base, joint, tip)
+
+
+def aperture_for_proximal(proximal: float) -> float:
+    """Gap between the inner fingertip surfaces at a proximal angle (spread 0)."""
+    return 2.0 * (finger_pose(proximal).tip[0] - _D3)
+
+
+PROXIMAL_WIDEST = (math.pi / 2 - hm.HAND_DISTAL_BEND) / (1.0 + hm.HAND_DISTAL_COUPLING)
+"""Proximal angle at which the distal links point straight forward (the widest usable aperture:
+opening further splays the tips outward and the narrowest gap moves back to the joints)."""
+PROXIMAL_CLOSED = float(brentq(aperture_for_proximal, PROXIMAL_WIDEST, hm.HAND_PROXIMAL_RANGE[1]))
+"""Proximal angle at which the fingertips touch (a = 0)."""
+MAX_APERTURE = aperture_for_proximal(PROXIMAL_WIDEST)
+
+
+def proximal_for_aperture(aperture: float) -> float:
+    """Inverse of `aperture_for_proximal` on the usable range (it is monotone there)."""
+    if not (math.isfinite(aperture) and 0.0 < aperture <= MAX_APERTURE + 1e-12):
+        raise ValueError(
+            f"aperture {aperture!r} m outside the hand's range (0, {MAX_APERTURE:.4f}]"
+        )
+    if aperture >= MAX_APERTURE:
+        return PROXIMAL_WIDEST
+    return float(
+        brentq(
+            lambda q: aperture_for_proximal(q) - aperture,
+            PROXIMAL_WIDEST,
+            PROXIMAL_CLOSED,
+            xtol=1e-12,
+        )
+    )
+
+
+def closure_for_aperture(aperture: float) -> float:
+    """The env's hand closure command (fraction of the proximal range) for an aperture."""
+    return proximal_for_aperture(aperture) / hm.HAND_PROXIMAL_RANGE[1]
+
+
+def check_fits(footprint: Footprint, aperture: float) -> None:
+    """ValueError unless the object's narrowest width fits the hand and this aperture."""
+    sizes = (footprint.radius,) if footprint.shape == "circle" else footprint.half_extents
+    if footprint.shape not in ("circle", "box") or not all(
+        math.isfinite(s) and s > 0 for s in sizes
+    ):
+        raise ValueError(f"footprint sizes must be positive and finite, got {footprint!r}")
+    width = footprint.min_width
+    if width >= MAX_APERTURE:
+        raise ValueError(
+            f"object is {width:.3f} m wide at its narrowest: wider than the hand's maximum "
+            f"aperture {MAX_APERTURE:.4f} m, it cannot be push-grasped"
+        )
+    if not width < aperture <= MAX_APERTURE + 1e-12:
+        raise ValueError(
+            f"aperture {aperture!r} m must be in ({width:.4f}, {MAX_APERTURE:.4f}]: wider than "
+            f"the object's narrowest width and within the hand's range"
+        )
+
+
+def _box(x0: float, x1: float, y0: float, y1: float) -> ConvexPolygon:
+    return ConvexPolygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)))
+
+
+def _finger_shapes(proximal: float, side: float) -> tuple[list[ConvexPolygon], Circle]:
+    """Proximal box, distal box and tip of one side in the push-grasp frame (x = z, y = side*u)."""
+    f = finger_pose(proximal)
+
+    def xy(p: tuple[float, float]) -> np.ndarray:
+        return np.array([p[1], side * p[0]])
+
+    links = [rectangle(xy(f.base), xy(f.joint), _D3), rectangle(xy(f.joint), xy(f.tip), _D3)]
+    return links, Circle((float(xy(f.tip)[0]), float(xy(f.tip)[1])), _D3)
+
+
+def _hand_shapes(proximal: float) -> tuple[list[ConvexPolygon], list[Circle]]:
+    polygons = [
+        _box(0.0, hm.HAND_PALM_HEIGHT, -hm.HAND_PALM_RADIUS, hm.HAND_PALM_RADIUS),
+        _box(_K - _D3, _K + _D3, -hm.HAND_A1, hm.HAND_A1),
+    ]
+    circles = []
+    for side in (1.0, -1.0):
+        links, tip = _finger_shapes(proximal, side)
+        polygons += links
+        circles.append(tip)
+    return polygons, circles
+
+
+@dataclass(frozen=True)
+class PushGraspProfile:
+    """The hand during a push-grasp: it moves along +x; an object is grasped when its centre is
+    behind ``grasp_line`` (the fingertip centres) and within ``half_gap`` of the axis."""
+
+    aperture: float
+    proximal: float
+    pusher: Pusher
+    grasp_line: float
+    half_gap: float
+
+    @property
+    def closure(self) -> float:
+        return self.proximal / hm.HAND_PROXIMAL_RANGE[1]
+
+
+def push_grasp_profile(aperture: float) -> PushGraspProfile:
+    q = proximal_for_aperture(aperture)
+    polygons, circles = _hand_shapes(q)
+    return PushGraspProfile(
+        aperture, q, Pusher(tuple(polygons), tuple(circles)), finger_pose(q).tip[1], aperture / 2
+    )
+
+
+WRIST_END = -hm.HAND_MOUNT_XYZ[2]
+"""Approach-axis coordinate of the wrist link's end (the WAM's wrist centre) from hand_base."""
+
+
+@dataclass(frozen=True)
+class SweepProfile:
+    """The hand sweeping along +x of the sweep frame; an object is kept while its centre's y
+    stays within ``span`` (the wrist end to the fingertip)."""
+
+    aperture: float
+    proximal: float
+    pusher: Pusher
+    span: tuple[float, float]
+
+
+def sweep_profile(aperture: float = MAX_APERTURE) -> SweepProfile:
+    q = proximal_for_aperture(aperture)
+    polygons, circles = _hand_shapes(q)
+    polygons.append(_box(WRIST_END, 0.0, -hm.HAND_PALM_RADIUS, hm.HAND_PALM_RADIUS))
+
+    def turn(p: tuple[float, float]) -> tuple[float, float]:  # +90 deg: (x, y) -> (-y, x)
+        return (-p[1], p[0])
+
+    pusher = Pusher(
+        tuple(ConvexPolygon(tuple(turn(v) for v in p.vertices)) for p in polygons),
+        tuple(Circle(turn(c.center), c.radius) for c in circles),
+    )
+    return SweepProfile(aperture, q, pusher, (WRIST_END, finger_pose(q).tip[1]))

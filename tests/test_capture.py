@@ -1,0 +1,155 @@
+"""Capture regions: membership and push distance, nesting, cache, bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clutter_gym.objects import OBJECTS, Footprint
+from planners.capture import CaptureRegion, CaptureSettings, push_grasp_region, sweep_region
+from planners.hand2d import (
+    MAX_APERTURE,
+    aperture_for_proximal,
+    closure_for_aperture,
+    proximal_for_aperture,
+)
+
+CAN = OBJECTS["soda_can"].footprint
+APERTURE = 0.15
+
+
+@pytest.fixture(scope="module")
+def can_region(tmp_path_factory: pytest.TempPathFactory) -> CaptureRegion:
+    return push_grasp_region(CAN, APERTURE, cache_dir=tmp_path_factory.mktemp("capture"))
+
+
+def test_known_points(can_region: CaptureRegion) -> None:
+    g = can_region.grasp_line
+    poses = np.array(
+        [
+            [g + 0.2, 0.0, 0.0],  # on the centre line in front of the palm
+            [g + 0.2, 0.4, 0.0],  # far to the side
+            [g - 0.02, 0.0, 1.0],  # already between the fingers, past the grasp line
+            [g + 1.5, 0.0, 0.0],  # beyond D_max
+            [0.05, 0.0, 0.0],  # inside the palm
+        ]
+    )
+    inside, d = can_region.query(poses)
+    assert inside.tolist() == [True, False, True, False, False]
+    assert d[0] == pytest.approx(0.2, abs=2e-3)
+    assert d[2] == 0.0
+    assert np.isinf(d[1])
+
+
+def test_capture_region_shape(can_region: CaptureRegion) -> None:
+    """Wider than the aperture ahead of the hand (objects rolling in off the fingertips) and
+    needing a longer push at the sides than on the centre line."""
+    ys = np.linspace(-0.15, 0.15, 301)
+    poses = np.column_stack([np.full_like(ys, can_region.grasp_line + 0.3), ys, np.zeros_like(ys)])
+    inside, d = can_region.query(poses)
+    width = ys[inside].max() - ys[inside].min()
+    assert APERTURE - CAN.min_width < width < APERTURE + 2 * CAN.radius
+    assert d[inside].max() > d[150] + 0.05
+
+
+def test_nested_in_push_distance(can_region: CaptureRegion) -> None:
+    rng = np.random.default_rng(0)
+    poses = np.column_stack(
+        [rng.uniform(0.0, 1.3, 4000), rng.uniform(-0.15, 0.15, 4000), rng.uniform(-3, 3, 4000)]
+    )
+    previous = np.zeros(len(poses), dtype=bool)
+    for distance in (0.0, 0.1, 0.3, 0.6, 1.0):
+        now = can_region.contains(poses, distance)
+        assert np.all(now[previous])
+        previous = now
+    assert previous.sum() > 100
+
+
+def test_query_is_fast(can_region: CaptureRegion) -> None:
+    import time
+
+    poses = np.column_stack([np.full(50, 0.3), np.linspace(-0.05, 0.05, 50), np.zeros(50)])
+    can_region.query(poses)
+    start = time.perf_counter()
+    for _ in range(100):
+        can_region.query(poses)
+    assert (time.perf_counter() - start) / 100 < 2e-3  # 0.5 ms target; slack for shared CPUs
+
+
+def test_evolution_funnels_into_the_hand(can_region: CaptureRegion) -> None:
+    g = can_region.grasp_line
+    samples = np.array([[g + 0.1, 0.03, 0.0], [g + 0.1, -0.03, 0.0], [g + 0.05, 0.0, 0.0]])
+    inside, d = can_region.query(samples)
+    assert inside.all()
+    stages = can_region.evolve(samples, float(d.max()), 4)
+    assert stages.shape == (5, 1, 3, 3)
+    final = stages[-1, 0]
+    assert np.all(final[:, 0] <= g + 2e-3) and np.all(np.abs(final[:, 1]) <= APERTURE / 2)
+
+
+def test_cache_round_trip_and_corruption(tmp_path: Path) -> None:
+    coarse = CaptureSettings(y_resolution=0.01)
+    first = push_grasp_region(CAN, 0.12, coarse, cache_dir=tmp_path)
+    files = list(tmp_path.glob("push_grasp_circle_*.npz"))
+    assert len(files) == 1
+    mtime = files[0].stat().st_mtime_ns
+    again = push_grasp_region(CAN, 0.12, coarse, cache_dir=tmp_path)
+    assert files[0].stat().st_mtime_ns == mtime  # loaded, not rebuilt
+    np.testing.assert_array_equal(first.s_req, again.s_req)
+    files[0].write_bytes(b"not an npz")
+    rebuilt = push_grasp_region(CAN, 0.12, coarse, cache_dir=tmp_path)
+    np.testing.assert_array_equal(first.s_req, rebuilt.s_req)
+    other = push_grasp_region(CAN, 0.13, coarse, cache_dir=tmp_path)  # another hash, another file
+    assert len(list(tmp_path.glob("push_grasp_circle_*.npz"))) == 2
+    assert other.aperture == 0.13
+    assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_sweep_region(tmp_path: Path) -> None:
+    bottle = OBJECTS["juice_bottle"].footprint
+    region = sweep_region(bottle, cache_dir=tmp_path)
+    lo, hi = region.span
+    mid = 0.5 * (lo + hi)
+    front = region.grid.x_start
+    poses = np.array([[front + 0.1, mid, 0.0], [front + 0.1, hi + 0.1, 0.0], [front + 2, mid, 0]])
+    inside, contact = region.query(poses, distance=0.5)
+    assert inside.tolist() == [True, False, False]
+    assert 0.0 < contact[0] < 0.2
+
+
+def test_aperture_and_closure() -> None:
+    assert 0.18 < MAX_APERTURE < 0.2
+    q = proximal_for_aperture(0.1)
+    assert aperture_for_proximal(q) == pytest.approx(0.1)
+    assert 0 < closure_for_aperture(0.1) < 1
+    assert closure_for_aperture(0.05) > closure_for_aperture(0.1)  # narrower = more closed
+
+
+@pytest.mark.parametrize(
+    ("footprint", "aperture", "match"),
+    [
+        (Footprint("circle", radius=0.0), 0.1, "positive"),
+        (Footprint("circle", radius=-0.01), 0.1, "positive"),
+        (Footprint("box", half_extents=(0.1, float("nan"))), 0.1, "positive"),
+        (Footprint("circle", radius=0.12), 0.15, "maximum aperture"),
+        (CAN, 0.05, "aperture"),
+        (CAN, 0.3, "aperture"),
+        (CAN, float("nan"), "aperture"),
+    ],
+)
+def test_bad_inputs(footprint: Footprint, aperture: float, match: str, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=match):
+        push_grasp_region(footprint, aperture, cache_dir=tmp_path)
+
+
+def test_bad_queries(can_region: CaptureRegion) -> None:
+    with pytest.raises(ValueError, match="NaN"):
+        can_region.query(np.array([[0.3, np.nan, 0.0]]))
+    with pytest.raises(ValueError, match="shape"):
+        can_region.query(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="push_distance"):
+        can_region.contains(np.zeros((1, 3)), 2.0)
+    with pytest.raises(ValueError, match="box_mus"):
+        CaptureSettings(box_mus=(0.0,))

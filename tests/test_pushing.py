@@ -1,0 +1,174 @@
+"""Quasi-static pushing: limit surface, one and several contacts, Appendix A's theorem."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from clutter_gym.objects import Footprint
+from planners.hand2d import push_grasp_profile
+from planners.pushing import (
+    STICK,
+    DiscPressure,
+    Pusher,
+    PushState,
+    RectanglePressure,
+    RimPressure,
+    SampledPressure,
+    contact_lcp,
+    limit_surface_matrix,
+    lynch_sticking_twist,
+    simulate_push,
+    single_contact_twist,
+    solve_contacts,
+)
+
+finite = st.floats(-0.1, 0.1, allow_nan=False)
+angle = st.floats(-np.pi, np.pi, allow_nan=False)
+
+
+def test_c_closed_forms() -> None:
+    assert RimPressure(0.04).c == pytest.approx(0.04)
+    assert DiscPressure(0.04).c == pytest.approx(2 * 0.04 / 3)
+    assert RectanglePressure((0.05, 0.05)).c == pytest.approx(0.3826 * 0.1, rel=1e-4)
+    ring = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    pts = tuple((0.03 * np.cos(a), 0.03 * np.sin(a)) for a in ring)
+    assert SampledPressure(pts, (1.0,) * len(pts)).c == pytest.approx(0.03)
+    grid = (np.arange(200) + 0.5) / 200 - 0.5
+    xx, yy = np.meshgrid(grid, grid)
+    square = SampledPressure(tuple(zip(xx.ravel(), yy.ravel(), strict=True)), (1.0,) * xx.size)
+    assert square.c == pytest.approx(RectanglePressure((0.5, 0.5)).c, rel=1e-4)
+    assert limit_surface_matrix(0.02)[2, 2] == pytest.approx(1 / 0.02**2)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: RimPressure(0.0),
+        lambda: DiscPressure(-1.0),
+        lambda: RectanglePressure((0.1, 0.0)),
+        lambda: SampledPressure(((0.1, 0.0),), (1.0,)),
+        lambda: limit_surface_matrix(float("nan")),
+    ],
+)
+def test_bad_pressure(make: object) -> None:
+    with pytest.raises(ValueError):
+        make()  # type: ignore[operator]
+
+
+@settings(max_examples=200, deadline=None)
+@given(finite, finite, angle, angle, st.floats(0.005, 0.1))
+def test_lynch_matches_general_sticking(
+    x: float, y: float, a_n: float, a_v: float, c: float
+) -> None:
+    """With a huge mu a contact whose sticking force pushes (n.f* > 0) sticks, and the general
+    solver equals Lynch's closed form."""
+    n = np.array([np.cos(a_n), np.sin(a_n)])
+    vp = np.array([np.cos(a_v), np.sin(a_v)])
+    jac = np.array([[1, 0, -y], [0, 1, x]])
+    f_star = np.linalg.solve(jac @ limit_surface_matrix(c) @ jac.T, vp)
+    twist, mode = single_contact_twist(np.array([x, y]), n, vp, 1e9, c)
+    if vp @ n > 1e-6 and n @ f_star > 1e-6:
+        assert mode == STICK
+        np.testing.assert_allclose(twist, lynch_sticking_twist(np.array([x, y]), vp, c), atol=1e-9)
+        np.testing.assert_allclose(jac @ twist, vp, atol=1e-9)  # contact point moves with pusher
+
+
+def test_sliding_formula() -> None:
+    """Disc pushed off-centre with low friction: the twist lies on the friction-cone edge and
+    the object's normal velocity at the contact equals the pusher's (Lemma 1)."""
+    r, n, vp, mu, c = np.array([-0.04, 0.02]), np.array([1.0, 0.0]), np.array([1.0, 0.3]), 0.1, 0.03
+    twist, mode = single_contact_twist(r, n, vp, mu, c)
+    assert mode == 2
+    jac = np.array([[1, 0, -r[1]], [0, 1, r[0]]])
+    assert (jac @ twist) @ n == pytest.approx(vp @ n)
+    wrench = np.linalg.solve(limit_surface_matrix(c), twist)  # A^-1 V is along J^T e
+    t = np.array([-n[1], n[0]])
+    edges = [jac.T @ (n + s * mu * t) for s in (1, -1)]
+    assert any(abs(np.linalg.det(np.column_stack([wrench[:2], e[:2]]))) < 1e-9 for e in edges)
+    assert np.all(single_contact_twist(r, -n, vp, mu, c)[0] == 0)  # separation
+
+
+@settings(max_examples=100, deadline=None)
+@given(finite, finite, angle, angle, st.floats(0.05, 2.0), st.floats(0.005, 0.1))
+def test_lcp_reproduces_single_contact(
+    x: float, y: float, a_n: float, a_v: float, mu: float, c: float
+) -> None:
+    r = np.array([[x, y]])
+    n = np.array([[np.cos(a_n), np.sin(a_n)]])
+    vp = np.array([[np.cos(a_v), np.sin(a_v)]])
+    sol = solve_contacts(r[None], n[None], vp[None], mu, c)
+    expected, _ = single_contact_twist(r[0], n[0], vp[0], mu, c)
+    np.testing.assert_allclose(sol.twist[0], expected, atol=1e-6)
+    assert not sol.jammed[0]
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(2, 3), st.integers(0, 2**32 - 1))
+def test_multi_contact_solution_satisfies_the_lcp(m: int, seed: int) -> None:
+    """The enumerated solution, written as z = (f_n, f_t+, f_t-, lambda), solves MECHANICS.md's
+    LCP: w = M z + q >= 0, z >= 0, w.z = 0."""
+    rng = np.random.default_rng(seed)
+    r = rng.uniform(-0.05, 0.05, (m, 2))
+    ang = rng.uniform(-np.pi, np.pi, m)
+    n = np.column_stack([np.cos(ang), np.sin(ang)])
+    vp = np.tile(rng.normal(size=2), (m, 1))
+    mu, c = float(rng.uniform(0.1, 1.5)), float(rng.uniform(0.01, 0.08))
+    sol = solve_contacts(r[None], n[None], vp[None], mu, c)
+    if sol.jammed[0]:
+        return
+    fn, ft = sol.forces[0, :, 0], sol.forces[0, :, 1]
+    t = np.column_stack([-n[:, 1], n[:, 0]])
+    jac = np.stack([[[1, 0, -ry], [0, 1, rx]] for rx, ry in r])
+    slip = np.einsum("ik,ikj,j->i", t, jac, sol.twist[0]) - (t * vp).sum(1)
+    z = np.concatenate([fn, np.column_stack([ft.clip(0), (-ft).clip(0)]).ravel(), np.abs(slip)])
+    big_m, q = contact_lcp(r, n, vp, mu, c)
+    w = big_m @ z + q
+    scale = 1 + np.abs(z).max()
+    assert np.all(z >= -1e-6 * scale) and np.all(w >= -1e-6 * scale)
+    assert abs(w @ z) < 1e-6 * scale**2
+
+
+def _push_distances(mus: np.ndarray, cs: np.ndarray, y: float) -> np.ndarray:
+    """Push until a juice bottle's centre passes the grasp line between the fingers, once per
+    (mu_c, c) pair, all in one batch."""
+    hand = push_grasp_profile(0.12)
+    fp = Footprint("circle", radius=0.04)
+    out = np.full(len(mus), np.inf)
+
+    def watch(state: PushState) -> np.ndarray:
+        p = state.poses
+        ok = (p[:, 0] <= hand.grasp_line) & (np.abs(p[:, 1]) <= hand.half_gap)
+        out[state.ids[ok]] = state.pushed[ok]
+        return ok
+
+    start = np.tile([0.24, y, 0.0], (len(mus), 1))
+    simulate_push(fp, hand.pusher, start, mus, cs, 0.6, watch=watch)
+    return out
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.floats(0.03, 0.075))
+def test_appendix_a_theorem(y: float) -> None:
+    """For a cylinder, the push needed never grows as mu_c decreases or as the pressure
+    concentrates toward the centre (smaller c)."""
+    radius = 0.04
+    mus = np.array([100.0, 1.0, 0.3, 0.1, 100.0, 100.0])
+    cs = np.array([radius, radius, radius, radius, 2 * radius / 3, radius / 3])
+    d = _push_distances(mus, cs, y)
+    for seq in (d[:4], d[[0, 4, 5]]):
+        assert all(b <= a + 2e-3 for a, b in itertools.pairwise(seq)), seq
+
+
+def test_box_on_flat_pusher_translates() -> None:
+    """A box pushed square-on by a wide flat face moves with it (two stuck corner contacts)."""
+    from planners.pushing import ConvexPolygon
+
+    wall = Pusher((ConvexPolygon(((-0.1, -0.2), (0.0, -0.2), (0.0, 0.2), (-0.1, 0.2))),))
+    box = Footprint("box", half_extents=(0.05, 0.03))
+    res = simulate_push(box, wall, np.array([[0.06, 0.01, 0.0]]), 0.5, 0.03, 0.2)
+    np.testing.assert_allclose(res.poses[0], [0.05, 0.01, 0.0], atol=2e-3)
