@@ -23,12 +23,12 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon as PolygonPatch
 
-from agents.validate_capture import resolve_kind, validation_aperture
+from agents.validate_capture import resolve_kind
 from clutter_gym.files import atomic_write_bytes
 from clutter_gym.objects import Footprint, get_object
 from clutter_gym.scene import NOISE_LEVELS
 from planners.capture import CaptureRegion, push_grasp_region
-from planners.hand2d import push_grasp_profile
+from planners.hand2d import default_aperture, push_grasp_profile
 
 DISTANCES = (0.05, 0.1, 0.2, 0.3, 0.5, 1.0)
 EXTENT = ((-0.05, 1.05), (-0.22, 0.22))  # x, y of the plots [m]
@@ -64,7 +64,7 @@ def _draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any
 def capture_figure(name: str, out: Path, validation: Path | None = None, seed: int = 0) -> None:
     kind = resolve_kind(name)
     spec = get_object(kind)
-    aperture = validation_aperture(spec)
+    aperture = default_aperture(spec.footprint)
     region = push_grasp_region(spec.footprint, aperture)
     panels = 3 if validation is not None else 2
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), constrained_layout=True)

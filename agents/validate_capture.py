@@ -40,7 +40,7 @@ from clutter_gym.scene import SCENE_FORMAT
 from clutter_gym.world import TABLE
 from planners.capture import push_grasp_region
 from planners.direct_grasp import LIFT, approach_rotation, grasp_height
-from planners.hand2d import MAX_APERTURE, push_grasp_profile
+from planners.hand2d import default_aperture, push_grasp_profile
 
 ALIASES = {"can": "soda_can", "bottle": "juice_bottle", "poptart": "poptart_box"}
 PUSH_DISTANCE = 0.25  # m
@@ -74,11 +74,6 @@ def resolve_kind(name: str) -> str:
     if not (spec.graspable and spec.liftable):
         raise ValueError(f"--object: {kind} cannot be push-grasped and lifted")
     return kind
-
-
-def validation_aperture(spec: ObjectSpec) -> float:
-    """Wide enough for the object at any orientation, within the hand's maximum."""
-    return min(MAX_APERTURE, 2.0 * spec.footprint.bounding_radius + 0.04)
 
 
 def grid(spec: ObjectSpec, trials: int) -> np.ndarray:
@@ -237,7 +232,7 @@ def validate(
 ) -> dict[str, Any]:
     kind = resolve_kind(name)
     spec = get_object(kind)
-    aperture = validation_aperture(spec)
+    aperture = default_aperture(spec.footprint)
     region = push_grasp_region(spec.footprint, aperture)
     poses = grid(spec, trials)
     predicted = region.contains(poses, PUSH_DISTANCE)

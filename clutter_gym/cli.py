@@ -62,9 +62,15 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from clutter_gym.bench import bench_env
+    if args.target == "capture":
+        from planners.capture_bench import bench_capture
 
-    result = bench_env(steps=args.steps, trajectory_steps=args.trajectory_steps, resets=args.resets)
+        objects = tuple(args.objects.split(",")) if args.objects else None
+        result = bench_capture(objects)
+    else:
+        from clutter_gym.bench import bench_env
+
+        result = bench_env(args.steps, args.trajectory_steps, args.resets)
     line = json.dumps(result, sort_keys=True)
     if args.json:
         write_json(Path(args.json), result)
@@ -147,11 +153,12 @@ def build_parser() -> argparse.ArgumentParser:
     figure.set_defaults(func=_cmd_capture_region)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
-    bench.add_argument("target", choices=("env",))
+    bench.add_argument("target", choices=("env", "capture"))
     bench.add_argument("--json", default=None, help="write the result to this file")
     bench.add_argument("--steps", type=int, default=2000, help="low-level steps to time")
     bench.add_argument("--trajectory-steps", type=int, default=20)
     bench.add_argument("--resets", type=int, default=1000)
+    bench.add_argument("--objects", default=None, help="capture: comma-separated kinds")
     bench.set_defaults(func=_cmd_bench)
     return parser
 

@@ -113,6 +113,12 @@ def closure_for_aperture(aperture: float) -> float:
     return proximal_for_aperture(aperture) / hm.HAND_PROXIMAL_RANGE[1]
 
 
+def default_aperture(footprint: Footprint) -> float:
+    """An aperture that fits the object at any orientation with 2 cm either side, capped at the
+    hand's maximum: the push-grasp preshape used by the validation and the benchmarks."""
+    return min(MAX_APERTURE, 2.0 * footprint.bounding_radius + 0.04)
+
+
 def check_fits(footprint: Footprint, aperture: float) -> None:
     """ValueError unless the object's narrowest width fits the hand and this aperture."""
     sizes = (footprint.radius,) if footprint.shape == "circle" else footprint.half_extents

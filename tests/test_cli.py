@@ -72,3 +72,31 @@ def test_console_script_is_installed() -> None:
     help_text = subprocess.run([exe, "--help"], capture_output=True, text=True, check=True).stdout
     for command in ("demo", "scene", "render", "bench"):
         assert command in help_text
+
+
+def test_validate_capture_small_run_and_resume(tmp_path: Path) -> None:
+    out = tmp_path / "val.json"
+    argv = ["validate-capture", "--object", "can", "--trials", "4", "--json", str(out)]
+    assert main([*argv, "--rotations", "0", "--workers", "1"]) == 0
+    report = json.loads(out.read_text())
+    summary = report["rotation_0deg"]
+    assert summary["trials"] + summary["skipped"] == report["grid_points"] == 4
+    assert summary["failures_inside"] == 0
+    log = next(tmp_path.glob("val.json.*.trials.jsonl"))
+    lines = log.read_text().count("\n")
+    assert main([*argv, "--rotations", "0", "--workers", "1"]) == 0  # resumes: nothing to rerun
+    assert log.read_text().count("\n") == lines
+
+
+def test_capture_region_figure(tmp_path: Path) -> None:
+    png = tmp_path / "fig.png"
+    assert main(["capture-region", "--object", "bottle", "--out", str(png)]) == 0
+    with Image.open(png) as image:
+        assert image.width > 800
+
+
+def test_bench_capture_writes_json(tmp_path: Path) -> None:
+    out = tmp_path / "capture.json"
+    assert main(["bench", "capture", "--objects", "soda_can", "--json", str(out)]) == 0
+    entry = json.loads(out.read_text())["push_grasp/soda_can"]
+    assert entry["build_s"] > entry["cached_load_s"] and entry["query_50_ms"] > 0

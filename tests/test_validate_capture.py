@@ -12,6 +12,7 @@ import pytest
 from agents import validate_capture as vc
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.objects import get_object
+from planners.hand2d import default_aperture
 
 
 def test_grid_covers_at_least_the_requested_trials() -> None:
@@ -35,7 +36,7 @@ def test_unknown_or_unliftable_objects_are_rejected() -> None:
 @pytest.mark.parametrize("rotation", [0.0, 45.0])
 def test_push_frame_maps_to_the_world_along_the_heading(rotation: float) -> None:
     spec = get_object("soda_can")
-    setup = vc.plan_push(spec, vc.validation_aperture(spec), rotation)
+    setup = vc.plan_push(spec, default_aperture(spec.footprint), rotation)
     x, y, theta = vc.world_pose(setup, (0.3, 0.0, 0.1))
     bx, by, _ = setup.hand_base
     assert math.atan2(y - by, x - bx) == pytest.approx(math.radians(rotation))
@@ -46,7 +47,7 @@ def test_push_frame_maps_to_the_world_along_the_heading(rotation: float) -> None
 
 def test_a_centred_can_is_push_grasped_and_a_far_one_is_not() -> None:
     spec = get_object("soda_can")
-    setup = vc.plan_push(spec, vc.validation_aperture(spec), 0.0)
+    setup = vc.plan_push(spec, default_aperture(spec.footprint), 0.0)
     env = ClutterRetrieveEnv()
     assert vc.run_trial(env, "soda_can", setup, (0.25, 0.0, 0.0)) == "success"
     assert vc.run_trial(env, "soda_can", setup, (0.30, 0.18, 0.0)).startswith("failure")
