@@ -67,17 +67,6 @@ def test_nested_in_push_distance(can_region: CaptureRegion) -> None:
     assert previous.sum() > 100
 
 
-def test_query_is_fast(can_region: CaptureRegion) -> None:
-    import time
-
-    poses = np.column_stack([np.full(50, 0.3), np.linspace(-0.05, 0.05, 50), np.zeros(50)])
-    can_region.query(poses)
-    start = time.perf_counter()
-    for _ in range(100):
-        can_region.query(poses)
-    assert (time.perf_counter() - start) / 100 < 2e-3  # 0.5 ms target; slack for shared CPUs
-
-
 def test_evolution_funnels_into_the_hand(can_region: CaptureRegion) -> None:
     g = can_region.grasp_line
     samples = np.array([[g + 0.1, 0.03, 0.0], [g + 0.1, -0.03, 0.0], [g + 0.05, 0.0, 0.0]])
