@@ -248,17 +248,24 @@ class ObjectSpec:
         assert isinstance(mesh, trimesh.Trimesh)
         return mesh
 
-    def fcl_objects(self, pose: Pose, surface_z: float) -> list[fcl.CollisionObject]:
-        """One fcl object per primitive, placed at ``pose`` on a surface whose top is
-        ``surface_z``."""
+    def fcl_parts(
+        self, pose: Pose, surface_z: float
+    ) -> list[tuple[fcl.CollisionGeometry, fcl.Transform]]:
+        """Each primitive's fcl geometry and world transform at ``pose`` on a surface whose top
+        is ``surface_z``. Callers that must map fcl contacts back to objects keep the geometry:
+        fcl reports contacts by geometry."""
         rotation = _rotation_z(pose[2])
         return [
-            fcl.CollisionObject(
+            (
                 p.fcl_geometry(),
                 fcl.Transform(rotation, np.array([pose[0], pose[1], surface_z + p.z])),
             )
             for p in self.primitives
         ]
+
+    def fcl_objects(self, pose: Pose, surface_z: float) -> list[fcl.CollisionObject]:
+        """One fcl object per primitive (see `fcl_parts`)."""
+        return [fcl.CollisionObject(g, t) for g, t in self.fcl_parts(pose, surface_z)]
 
 
 def _dumbbell() -> ObjectSpec:

@@ -13,7 +13,7 @@ lets ``clutter_gym.robot.kinematics`` reproduce pybullet's forward kinematics ex
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -164,7 +164,7 @@ def _origin(xyz: Vec3 = _ZERO, rpy: Vec3 = _ZERO) -> str:
     return f'<origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>'
 
 
-class _Shape(NamedTuple):
+class Shape(NamedTuple):
     """One primitive with its pose in the link frame; knows its own solid inertia."""
 
     kind: str  # "box" (dims = size), "cylinder" (radius, length along z) or "sphere" (radius,)
@@ -199,9 +199,9 @@ class _Shape(NamedTuple):
 def _link(
     name: str,
     mass: float,
-    shapes: list[_Shape],
+    shapes: Sequence[Shape],
     material: str,
-    inertia_shape: _Shape | None = None,
+    inertia_shape: Shape | None = None,
 ) -> str:
     """A link whose inertia is that of one primitive (the first by default) carrying all mass."""
     body = inertia_shape or shapes[0]
@@ -288,50 +288,131 @@ def _rpy_of(r: np.ndarray) -> Vec3:
 def _body() -> list[str]:
     """Segway base, wheels, torso column and sensor mast as one fixed root link."""
     along_y: Vec3 = (PI / 2, 0.0, 0.0)
-    chassis = _Shape("box", (0.60, 0.50, 0.30), (-0.15, 0.0, 0.20))
+    chassis = Shape("box", (0.60, 0.50, 0.30), (-0.15, 0.0, 0.20))
     shapes = [
         chassis,
-        _Shape("cylinder", (0.24, 0.08), (-0.15, 0.30, 0.24), along_y),
-        _Shape("cylinder", (0.24, 0.08), (-0.15, -0.30, 0.24), along_y),
-        _Shape("box", (0.18, 0.40, 0.75), (-0.36, 0.0, 0.725)),
-        _Shape("cylinder", (0.03, 0.40), (-0.36, 0.0, 1.30)),
-        _Shape("box", (0.12, 0.28, 0.10), (-0.33, 0.0, 1.55)),
+        Shape("cylinder", (0.24, 0.08), (-0.15, 0.30, 0.24), along_y),
+        Shape("cylinder", (0.24, 0.08), (-0.15, -0.30, 0.24), along_y),
+        Shape("box", (0.18, 0.40, 0.75), (-0.36, 0.0, 0.725)),
+        Shape("cylinder", (0.03, 0.40), (-0.36, 0.0, 1.30)),
+        Shape("box", (0.12, 0.28, 0.10), (-0.33, 0.0, 1.55)),
     ]
     return [_link("herb_base", 120.0, shapes, "herb_base_dark", chassis)]
+
+
+class LinkSpec(NamedTuple):
+    """Mass and primitives of one link (collision = visual), shared by URDF and fcl geometry."""
+
+    mass: float
+    shapes: tuple[Shape, ...]
+
+
+class FingerJoint(NamedTuple):
+    """A hand joint's origin and axis (names without the side prefix), for URDF and FK alike."""
+
+    parent: str
+    child: str
+    xyz: Vec3
+    rpy: Vec3
+    axis: Vec3
+
+
+def arm_links() -> dict[str, LinkSpec]:
+    """WAM links wam_base, wam1..wam7 (without the side prefix), in URDF order."""
+    along_y: Vec3 = (PI / 2, 0.0, 0.0)
+    j1 = WAM_BASE_TO_J1
+    return {
+        # Motor housing behind the shoulder (j1 axis = wam_base z).
+        "wam_base": LinkSpec(10.0, (Shape("box", (0.20, 0.18, 0.20), (j1[0], j1[1], 0.10)),)),
+        # j1 housing, coaxial with the j1 axis, behind the shoulder (clear of a folded-back
+        # upper arm).
+        "wam1": LinkSpec(10.8, (Shape("cylinder", (0.07, 0.056), (0.0, 0.0, -0.118)),)),
+        # Shoulder pitch housing around the j2 axis.
+        "wam2": LinkSpec(3.9, (Shape("cylinder", (0.065, 0.17)),)),
+        # Upper arm tube along the j3 axis, towards the elbow at z = 0.55.
+        "wam3": LinkSpec(1.8, (Shape("cylinder", (0.045, 0.38), (0.0, 0.0, 0.31)),)),
+        # Elbow drum on the j4 axis + forearm tube along the j5 axis (-y here).
+        "wam4": LinkSpec(
+            2.4,
+            (
+                Shape("cylinder", (0.04, 0.20), (-0.045, -0.15, 0.0), along_y),
+                Shape("cylinder", (0.055, 0.10)),
+            ),
+        ),
+        # Wrist yaw housing at the forearm end.
+        "wam5": LinkSpec(0.4, (Shape("cylinder", (0.045, 0.05), (0.0, 0.0, 0.225)),)),
+        # Wrist pitch housing on the j6 axis through the wrist centre.
+        "wam6": LinkSpec(0.4, (Shape("cylinder", (0.045, 0.09)),)),
+        # Wrist roll output flange + force/torque sensor.
+        "wam7": LinkSpec(0.25, (Shape("cylinder", (0.04, 0.027), (0.0, 0.0, 0.0585)),)),
+    }
+
+
+def hand_links() -> dict[str, LinkSpec]:
+    """BH-280 links (without the side prefix): palm, two spread knuckles, proximal and distal
+    links of each finger (flat boxes with a rounded cylinder tip)."""
+    t = 2 * HAND_D3
+    along_y: Vec3 = (PI / 2, 0.0, 0.0)
+    palm = Shape("cylinder", (HAND_PALM_RADIUS, HAND_PALM_HEIGHT), (0.0, 0.0, HAND_PALM_HEIGHT / 2))
+    f3_knuckle = Shape(
+        "box", (HAND_FINGER_WIDTH, HAND_A1, t), (0.0, HAND_A1 / 2, HAND_KNUCKLE_HEIGHT)
+    )
+    knuckle = Shape("box", (HAND_A1, HAND_FINGER_WIDTH, t), (HAND_A1 / 2, 0.0, 0.0))
+    prox = Shape("box", (HAND_A2, HAND_FINGER_WIDTH, t), (HAND_A2 / 2, 0.0, 0.0))
+    c, s = np.cos(HAND_DISTAL_BEND), np.sin(HAND_DISTAL_BEND)
+    dist_box = Shape(
+        "box",
+        (HAND_A3, HAND_FINGER_WIDTH, t),
+        (HAND_A3 / 2 * c, 0.0, HAND_A3 / 2 * s),
+        (0.0, -HAND_DISTAL_BEND, 0.0),
+    )
+    tip = Shape("cylinder", (HAND_D3, HAND_FINGER_WIDTH), FINGERTIP_OFFSET, along_y)
+    links = {
+        "hand_base": LinkSpec(0.71, (palm, f3_knuckle)),
+        "f1_knuckle": LinkSpec(0.05, (knuckle,)),
+        "f2_knuckle": LinkSpec(0.05, (knuckle,)),
+    }
+    for i in (1, 2, 3):
+        links[f"f{i}_prox"] = LinkSpec(0.08, (prox,))
+        links[f"f{i}_dist"] = LinkSpec(0.05, (dist_box, tip))
+    return links
+
+
+def finger_joints() -> dict[str, FingerJoint]:
+    """The 8 revolute hand joints in `hand_joint_names` order (without the side prefix).
+
+    Finger frames have x along the finger and z towards the approach axis when open; proximal
+    and distal joints turn about -y so that positive angles curl the fingers closed. F1 at
+    x = -Aw turns about -z, F2 at x = +Aw about +z: positive spread mirrors them.
+    """
+    k = HAND_KNUCKLE_HEIGHT
+    curl: Vec3 = (0.0, -1.0, 0.0)
+    joints = {
+        "f1_spread": FingerJoint(
+            "hand_base", "f1_knuckle", (-HAND_AW, 0.0, k), (0.0, 0.0, -PI / 2), (0.0, 0.0, -1.0)
+        ),
+        "f2_spread": FingerJoint(
+            "hand_base", "f2_knuckle", (HAND_AW, 0.0, k), (0.0, 0.0, -PI / 2), (0.0, 0.0, 1.0)
+        ),
+        "f1_prox": FingerJoint("f1_knuckle", "f1_prox", (HAND_A1, 0.0, 0.0), _ZERO, curl),
+        "f2_prox": FingerJoint("f2_knuckle", "f2_prox", (HAND_A1, 0.0, 0.0), _ZERO, curl),
+        "f3_prox": FingerJoint("hand_base", "f3_prox", (0.0, HAND_A1, k), (0.0, 0.0, PI / 2), curl),
+    }
+    for i in (1, 2, 3):
+        joints[f"f{i}_dist"] = FingerJoint(
+            f"f{i}_prox", f"f{i}_dist", (HAND_A2, 0.0, 0.0), _ZERO, curl
+        )
+    return joints
 
 
 def _arm(side: str, parked: Mapping[str, float]) -> list[str]:
     """WAM links and joints of one arm; joint origins come straight from WAM_DH."""
     p = f"{side}_"
-    along_y: Vec3 = (PI / 2, 0.0, 0.0)
     j1 = WAM_BASE_TO_J1
-    link_specs: list[tuple[str, float, list[_Shape]]] = [
-        # Motor housing behind the shoulder (j1 axis = wam_base z).
-        ("wam_base", 10.0, [_Shape("box", (0.20, 0.18, 0.20), (j1[0], j1[1], 0.10))]),
-        # j1 housing, coaxial with the j1 axis, behind the shoulder (clear of a folded-back
-        # upper arm).
-        ("wam1", 10.8, [_Shape("cylinder", (0.07, 0.056), (0.0, 0.0, -0.118))]),
-        # Shoulder pitch housing around the j2 axis.
-        ("wam2", 3.9, [_Shape("cylinder", (0.065, 0.17))]),
-        # Upper arm tube along the j3 axis, towards the elbow at z = 0.55.
-        ("wam3", 1.8, [_Shape("cylinder", (0.045, 0.38), (0.0, 0.0, 0.31))]),
-        # Elbow drum on the j4 axis + forearm tube along the j5 axis (-y here).
-        (
-            "wam4",
-            2.4,
-            [
-                _Shape("cylinder", (0.04, 0.20), (-0.045, -0.15, 0.0), along_y),
-                _Shape("cylinder", (0.055, 0.10)),
-            ],
-        ),
-        # Wrist yaw housing at the forearm end.
-        ("wam5", 0.4, [_Shape("cylinder", (0.045, 0.05), (0.0, 0.0, 0.225))]),
-        # Wrist pitch housing on the j6 axis through the wrist centre.
-        ("wam6", 0.4, [_Shape("cylinder", (0.045, 0.09))]),
-        # Wrist roll output flange + force/torque sensor.
-        ("wam7", 0.25, [_Shape("cylinder", (0.04, 0.027), (0.0, 0.0, 0.0585))]),
+    out = [
+        _link(p + name, spec.mass, spec.shapes, "herb_arm_grey")
+        for name, spec in arm_links().items()
     ]
-    out = [_link(p + name, mass, shapes, "herb_arm_grey") for name, mass, shapes in link_specs]
     mount_xyz, mount_rpy = ARM_MOUNT[side]
     out.append(_joint(p + "mount", "fixed", "herb_base", p + "wam_base", mount_xyz, mount_rpy))
     lower, upper = arm_joint_limits(side)
@@ -363,45 +444,36 @@ def _arm(side: str, parked: Mapping[str, float]) -> list[str]:
     return out
 
 
-def _finger_links(p: str, i: int) -> list[str]:
-    """Proximal and distal links of finger i: flat boxes with a rounded (cylinder) tip."""
-    t = 2 * HAND_D3
-    along_y: Vec3 = (PI / 2, 0.0, 0.0)
-    prox = _Shape("box", (HAND_A2, HAND_FINGER_WIDTH, t), (HAND_A2 / 2, 0.0, 0.0))
-    c, s = np.cos(HAND_DISTAL_BEND), np.sin(HAND_DISTAL_BEND)
-    dist_box = _Shape(
-        "box",
-        (HAND_A3, HAND_FINGER_WIDTH, t),
-        (HAND_A3 / 2 * c, 0.0, HAND_A3 / 2 * s),
-        (0.0, -HAND_DISTAL_BEND, 0.0),
-    )
-    tip = _Shape("cylinder", (HAND_D3, HAND_FINGER_WIDTH), FINGERTIP_OFFSET, along_y)
-    return [
-        _link(f"{p}f{i}_prox", 0.08, [prox], "herb_hand_dark"),
-        _link(f"{p}f{i}_dist", 0.05, [dist_box, tip], "herb_hand_dark"),
-    ]
-
-
 def _hand(side: str, parked: Mapping[str, float]) -> list[str]:
-    """BH-280: palm, F1/F2 on mirrored spread joints, F3 fixed opposite them.
-
-    Finger frames have x along the finger and z towards the approach axis when open; proximal
-    and distal joints turn about -y so that positive angles curl the fingers closed.
-    """
+    """BH-280: palm, F1/F2 on mirrored spread joints, F3 fixed opposite them."""
     p = f"{side}_"
-    k = HAND_KNUCKLE_HEIGHT
-    t = 2 * HAND_D3
-    palm = _Shape(
-        "cylinder", (HAND_PALM_RADIUS, HAND_PALM_HEIGHT), (0.0, 0.0, HAND_PALM_HEIGHT / 2)
-    )
-    f3_knuckle = _Shape("box", (HAND_FINGER_WIDTH, HAND_A1, t), (0.0, HAND_A1 / 2, k))
-    knuckle = _Shape("box", (HAND_A1, HAND_FINGER_WIDTH, t), (HAND_A1 / 2, 0.0, 0.0))
-    curl: Vec3 = (0.0, -1.0, 0.0)
-    spread = (*HAND_SPREAD_RANGE, HAND_SPREAD_EFFORT, HAND_SPREAD_VELOCITY)
-    prox_lim = (*HAND_PROXIMAL_RANGE, HAND_PROXIMAL_EFFORT, HAND_PROXIMAL_VELOCITY)
-    dist_lim = (*HAND_DISTAL_RANGE, HAND_DISTAL_EFFORT, HAND_DISTAL_VELOCITY)
+    links = hand_links()
+    joints = finger_joints()
+    limits = {
+        "spread": (*HAND_SPREAD_RANGE, HAND_SPREAD_EFFORT, HAND_SPREAD_VELOCITY),
+        "prox": (*HAND_PROXIMAL_RANGE, HAND_PROXIMAL_EFFORT, HAND_PROXIMAL_VELOCITY),
+        "dist": (*HAND_DISTAL_RANGE, HAND_DISTAL_EFFORT, HAND_DISTAL_VELOCITY),
+    }
+
+    def link(name: str) -> str:
+        return _link(p + name, links[name].mass, links[name].shapes, "herb_hand_dark")
+
+    def joint(name: str) -> str:
+        j = joints[name]
+        return _joint(
+            p + name,
+            "revolute",
+            p + j.parent,
+            p + j.child,
+            j.xyz,
+            j.rpy,
+            j.axis,
+            limits[name.split("_")[1]],
+            fixed_at=parked.get(p + name),
+        )
+
     out = [
-        _link(p + "hand_base", 0.71, [palm, f3_knuckle], "herb_hand_dark"),
+        link("hand_base"),
         _joint(
             p + "hand_mount",
             "fixed",
@@ -411,64 +483,19 @@ def _hand(side: str, parked: Mapping[str, float]) -> list[str]:
             (0.0, 0.0, HAND_MOUNT_YAW),
         ),
         _frame_link(p + "hand_tcp"),
-    ]
-    out.append(
         _joint(
             p + "hand_tcp_joint",
             "fixed",
             p + "hand_base",
             p + "hand_tcp",
             (0.0, 0.0, HAND_TCP_OFFSET),
-        )
-    )
-    # F1 at x = -Aw turns about -z, F2 at x = +Aw about +z: positive spread mirrors them.
-    for i, x, axis_z in ((1, -HAND_AW, -1.0), (2, HAND_AW, 1.0)):
-        out.append(_link(f"{p}f{i}_knuckle", 0.05, [knuckle], "herb_hand_dark"))
-        out.append(
-            _joint(
-                f"{p}f{i}_spread",
-                "revolute",
-                p + "hand_base",
-                f"{p}f{i}_knuckle",
-                (x, 0.0, k),
-                (0.0, 0.0, -PI / 2),
-                (0.0, 0.0, axis_z),
-                spread,
-                fixed_at=parked.get(f"{p}f{i}_spread"),
-            )
-        )
-    prox_parents = {
-        1: (f"{p}f1_knuckle", (HAND_A1, 0.0, 0.0), _ZERO),
-        2: (f"{p}f2_knuckle", (HAND_A1, 0.0, 0.0), _ZERO),
-        3: (p + "hand_base", (0.0, HAND_A1, k), (0.0, 0.0, PI / 2)),
-    }
-    for i, (parent, xyz, rpy) in prox_parents.items():
-        out.extend(_finger_links(p, i))
-        out.append(
-            _joint(
-                f"{p}f{i}_prox",
-                "revolute",
-                parent,
-                f"{p}f{i}_prox",
-                xyz,
-                rpy,
-                curl,
-                prox_lim,
-                fixed_at=parked.get(f"{p}f{i}_prox"),
-            )
-        )
-        out.append(
-            _joint(
-                f"{p}f{i}_dist",
-                "revolute",
-                f"{p}f{i}_prox",
-                f"{p}f{i}_dist",
-                (HAND_A2, 0.0, 0.0),
-                _ZERO,
-                curl,
-                dist_lim,
-                fixed_at=parked.get(f"{p}f{i}_dist"),
-            )
+        ),
+    ]
+    for i in (1, 2):
+        out.extend([link(f"f{i}_knuckle"), joint(f"f{i}_spread")])
+    for i in (1, 2, 3):
+        out.extend(
+            [link(f"f{i}_prox"), link(f"f{i}_dist"), joint(f"f{i}_prox"), joint(f"f{i}_dist")]
         )
     return out
 

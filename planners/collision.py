@@ -1,0 +1,236 @@
+"""One collision layer for the planners: HERB's right arm and hand against the support surface,
+the objects and itself, on python-fcl broad-phase managers.
+
+fcl reports contacts by geometry, not by object, so object geometries are mapped back to the
+object's name by ``id(geometry)``. Planners consume the checks as callables:
+`CollisionChecker.checker` is the ``accept`` predicate of `ArmKinematics.solve_ik`, which is how
+IK avoids the table and the shelf.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Collection, Iterable, Mapping
+
+import fcl
+import numpy as np
+
+from clutter_gym.objects import ObjectSpec, Pose
+from clutter_gym.robot.geometry import ArmGeometry, Hand
+from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.world import Surface
+
+OPEN_HAND: Hand = (0.0, 0.0)
+
+_HAND_LINKS = ("hand_base", "f1_knuckle", "f2_knuckle") + tuple(
+    f"f{i}_{part}" for i in (1, 2, 3) for part in ("prox", "dist")
+)
+#: Self-collision is checked between these groups of links only. Every other pair is disabled:
+#: chain neighbours always touch at their joints; the shoulder links (wam_base..wam3) cannot reach
+#: each other within the joint limits, nor can the wrist links and hand (wam5..hand), and the
+#: elbow (wam4) cannot reach the wrist or hand since j6 bends at most 90 degrees.
+SELF_COLLISION_GROUPS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
+    (("wam_base", "wam1", "wam2", "wam3"), ("wam5", "wam6", "wam7", *_HAND_LINKS)),
+    (("wam_base", "wam1", "wam2"), ("wam4",)),
+)
+
+_REQUEST = fcl.CollisionRequest()
+
+
+def _fcl_geometry(kind: str, dims: tuple[float, ...]) -> fcl.CollisionGeometry:
+    if kind == "box":
+        return fcl.Box(*dims)
+    if kind == "cylinder":
+        return fcl.Cylinder(dims[0], dims[1])
+    return fcl.Sphere(dims[0])
+
+
+def _manager(objects: Iterable[fcl.CollisionObject]) -> fcl.DynamicAABBTreeCollisionManager:
+    manager = fcl.DynamicAABBTreeCollisionManager()
+    manager.registerObjects(list(objects))
+    manager.setup()
+    return manager
+
+
+class _Query:
+    """Broad-phase callback state: geometry-id pairs in contact, stopping at the first if asked."""
+
+    def __init__(self, skip: Collection[int] = (), first_only: bool = True) -> None:
+        self.skip = skip
+        self.first_only = first_only
+        self.hits: list[tuple[int, int]] = []
+
+    def __call__(self, o1: fcl.CollisionObject, o2: fcl.CollisionObject, _: object) -> bool:
+        result = fcl.CollisionResult()
+        if fcl.collide(o1, o2, _REQUEST, result):
+            contact = result.contacts[0]
+            pair = (id(contact.o1), id(contact.o2))
+            if pair[0] not in self.skip and pair[1] not in self.skip:
+                self.hits.append(pair)
+        return self.first_only and bool(self.hits)
+
+
+def _collide(a: fcl.DynamicAABBTreeCollisionManager, b: object, query: _Query) -> _Query:
+    a.collide(b, None, query)
+    return query
+
+
+class CollisionWorld:
+    """The static scene: surface boxes and objects, in separate managers so that surface-only
+    checks (IK) never look at objects."""
+
+    def __init__(self, surface: Surface, objects: Mapping[str, tuple[ObjectSpec, Pose]]) -> None:
+        self.surface = surface
+        self._surface_objects = [
+            fcl.CollisionObject(
+                fcl.Box(*(2.0 * h for h in box.half_extents)),
+                fcl.Transform(np.asarray(box.centre, dtype=float)),
+            )
+            for box in surface.boxes
+        ]
+        self.surface_manager = _manager(self._surface_objects)
+        self._objects: list[fcl.CollisionObject] = []
+        #: Object name of every object geometry, by ``id(geometry)``.
+        self.owner: dict[int, str] = {}
+        for name, (spec, pose) in objects.items():
+            for geometry, transform in spec.fcl_parts(pose, surface.top_z):
+                self._objects.append(fcl.CollisionObject(geometry, transform))
+                self.owner[id(geometry)] = name
+        self.object_manager = _manager(self._objects)
+
+    def geometry_ids(self, names: Iterable[str]) -> frozenset[int]:
+        """Geometry ids of the named objects (unknown names are an error, not a silent no-op)."""
+        wanted = set(names)
+        if not wanted:
+            return frozenset()
+        unknown = wanted - set(self.owner.values())
+        if unknown:
+            raise KeyError(f"unknown objects {sorted(unknown)}")
+        return frozenset(g for g, name in self.owner.items() if name in wanted)
+
+
+class RobotCollision:
+    """The arm and hand primitives as fcl objects, placed at a configuration on demand."""
+
+    def __init__(self, kinematics: ArmKinematics, geometry: ArmGeometry) -> None:
+        self.kinematics = kinematics
+        self.geometry = geometry
+        self._objects = [
+            fcl.CollisionObject(_fcl_geometry(p.kind, p.dims), fcl.Transform())
+            for p in geometry.primitives
+        ]
+        self.manager = _manager(self._objects)
+
+        def group(links: tuple[str, ...]) -> fcl.DynamicAABBTreeCollisionManager:
+            return _manager(
+                o
+                for o, p in zip(self._objects, geometry.primitives, strict=True)
+                if p.link in links
+            )
+
+        self._self_pairs = [(group(a), group(b)) for a, b in SELF_COLLISION_GROUPS]
+        self._placed: tuple[bytes, Hand] | None = None
+
+    def place(self, q: np.ndarray, hand: Hand) -> None:
+        """Move the primitives to configuration q and hand command; no-op if already there."""
+        q = np.asarray(q, dtype=float)
+        key = (q.tobytes(), hand)
+        if key == self._placed:
+            return
+        poses = self.geometry.primitive_poses(self.kinematics.link_frames(q), hand)
+        for obj, pose in zip(self._objects, poses, strict=True):
+            obj.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        self.manager.update()
+        for a, b in self._self_pairs:
+            a.update()
+            b.update()
+        self._placed = key
+
+    def self_collision(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> bool:
+        """Whether two links of `SELF_COLLISION_GROUPS` penetrate at q."""
+        self.place(q, hand)
+        return any(_collide(a, b, _Query()).hits for a, b in self._self_pairs)
+
+
+class CollisionChecker:
+    """The planner's collision queries of the arm against one world (and itself)."""
+
+    def __init__(self, world: CollisionWorld, robot: RobotCollision) -> None:
+        self.world = world
+        self.robot = robot
+
+    def surface_collision(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> bool:
+        """Whether the arm or hand penetrates the table or shelf."""
+        self.robot.place(q, hand)
+        return bool(_collide(self.robot.manager, self.world.surface_manager, _Query()).hits)
+
+    def in_collision(
+        self,
+        q: np.ndarray,
+        hand: Hand = OPEN_HAND,
+        ignore: Iterable[str] = (),
+        self_collision: bool = True,
+    ) -> bool:
+        """Whether the arm hits the surface, an object not named in `ignore`, or itself."""
+        return self._in_collision(q, hand, self.world.geometry_ids(ignore), self_collision)
+
+    def _in_collision(
+        self, q: np.ndarray, hand: Hand, skip: frozenset[int], self_collision: bool
+    ) -> bool:
+        if self.surface_collision(q, hand):
+            return True
+        if _collide(self.robot.manager, self.world.object_manager, _Query(skip)).hits:
+            return True
+        return self_collision and self.robot.self_collision(q, hand)
+
+    def touching_objects(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> set[str]:
+        """Names of the objects the arm penetrates at q (FindPenetrated)."""
+        self.robot.place(q, hand)
+        query = _collide(self.robot.manager, self.world.object_manager, _Query(first_only=False))
+        owner = self.world.owner
+        return {owner[g] for pair in query.hits for g in pair if g in owner}
+
+    def swept_objects(
+        self, path: np.ndarray, hand: Hand = OPEN_HAND, step_rad: float = 0.02
+    ) -> set[str]:
+        """Names of the objects penetrated anywhere along a joint path (N, 7), sampled so that
+        no joint moves more than step_rad between samples (Volume(robot, tau) + FindPenetrated)."""
+        found: set[str] = set()
+        for q in interpolate(np.asarray(path, dtype=float), step_rad):
+            found |= self.touching_objects(q, hand)
+        return found
+
+    def checker(
+        self, hand: Hand = OPEN_HAND, ignore: Iterable[str] = (), objects: bool = True
+    ) -> Callable[[np.ndarray], bool]:
+        """A collision-free predicate of q, e.g. for ``ArmKinematics.solve_ik(accept=...)``;
+        with ``objects=False`` it checks the surface and self-collision only."""
+        skip = self.world.geometry_ids(ignore)
+
+        def free(q: np.ndarray) -> bool:
+            if not objects:
+                return not (self.surface_collision(q, hand) or self.robot.self_collision(q, hand))
+            return not self._in_collision(q, hand, skip, self_collision=True)
+
+        return free
+
+
+def interpolate(path: np.ndarray, step_rad: float) -> np.ndarray:
+    """Joint path resampled linearly so that consecutive rows differ by at most step_rad in
+    every joint; the original waypoints are kept."""
+    if step_rad <= 0:
+        raise ValueError("step_rad must be positive")
+    rows = [path[:1]]
+    for a, b in itertools.pairwise(path):
+        n = max(1, int(np.ceil(np.max(np.abs(b - a)) / step_rad)))
+        rows.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
+    return np.concatenate(rows)
+
+
+def make_checker(
+    surface: Surface, objects: Mapping[str, tuple[ObjectSpec, Pose]], side: str = "right"
+) -> CollisionChecker:
+    """A checker for one arm of HERB in a scene."""
+    return CollisionChecker(
+        CollisionWorld(surface, objects), RobotCollision(ArmKinematics(side), ArmGeometry())
+    )

@@ -1,0 +1,265 @@
+"""Tests of the arm collision geometry and the fcl collision layer, with pybullet as reference."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+from clutter_gym.objects import OBJECTS, ObjectSpec, Pose
+from clutter_gym.robot import herb_model as hm
+from clutter_gym.robot.geometry import ArmGeometry, Hand
+from clutter_gym.robot.herb import hand_targets
+from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.world import TABLE
+from planners.collision import SELF_COLLISION_GROUPS, CollisionChecker, interpolate, make_checker
+from planners.direct_grasp import approach_rotation
+
+CAN_XY = (0.90, -0.30)
+#: Table + 3 objects: the can where the test grasps reach, the others nearby.
+SCENE: dict[str, tuple[ObjectSpec, Pose]] = {
+    "can": (OBJECTS["soda_can"], (*CAN_XY, 0.0)),
+    "bottle": (OBJECTS["juice_bottle"], (0.82, -0.05, 0.0)),
+    "box": (OBJECTS["poptart_box"], (0.95, -0.52, 0.3)),
+}
+CLOSED: Hand = (0.0, 1.0)
+#: Over the table, out of reach of the objects even with the fingers flat open.
+CLEAR_XY = (0.85, 0.30)
+
+
+@dataclass
+class Bullet:
+    """HERB (left side parked, exact cylinders) and the scene in a pybullet client."""
+
+    client: BulletClient
+    robot: int
+    joints: dict[str, int]
+    links: dict[str, int]
+    bodies: list[int]
+
+    def set(self, q: np.ndarray, hand: Hand) -> None:
+        names = hm.arm_joint_names("right") + hm.hand_joint_names("right")
+        for name, value in zip(names, [*q, *hand_targets(*hand)], strict=True):
+            self.client.resetJointState(self.robot, self.joints[name], float(value))
+
+    def pose(self, position: tuple[float, ...], quaternion: tuple[float, ...]) -> np.ndarray:
+        t = np.eye(4)
+        t[:3, :3] = np.reshape(self.client.getMatrixFromQuaternion(quaternion), (3, 3))
+        t[:3, 3] = position
+        return t
+
+
+@pytest.fixture(scope="module")
+def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
+    c = BulletClient(connection_mode=pybullet.DIRECT)
+    urdf = hm.write_herb_urdf(Path(tmp_path_factory.mktemp("urdf")), hm.parked_left_side())
+    robot = c.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_IMPLICIT_CYLINDER)
+    joints, links = {}, {}
+    for j in range(c.getNumJoints(robot)):
+        info = c.getJointInfo(robot, j)
+        joints[info[1].decode()] = j
+        links[info[12].decode()] = j
+    bodies = [
+        c.createMultiBody(
+            0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=b.half_extents), -1, b.centre
+        )
+        for b in TABLE.boxes
+    ]
+    for spec, (x, y, theta) in SCENE.values():
+        for p in spec.primitives:
+            shape = (
+                c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[s / 2 for s in p.size])
+                if p.shape == "box"
+                else c.createCollisionShape(
+                    pybullet.GEOM_CYLINDER, radius=p.size[0], height=p.size[1]
+                )
+            )
+            orientation = c.getQuaternionFromEuler((0.0, 0.0, theta))
+            bodies.append(c.createMultiBody(0, shape, -1, (x, y, TABLE.top_z + p.z), orientation))
+    yield Bullet(c, robot, joints, links, bodies)
+    c.disconnect()
+
+
+@pytest.fixture(scope="module")
+def checker() -> CollisionChecker:
+    return make_checker(TABLE, SCENE)
+
+
+def tcp_target(
+    x: float, y: float, z: float, direction: tuple[float, float] = (1.0, 0.0)
+) -> np.ndarray:
+    t = np.eye(4)
+    t[:3, :3] = approach_rotation(np.array(direction))
+    t[:3, 3] = (x, y, z)
+    return t
+
+
+def solve(kin: ArmKinematics, target: np.ndarray) -> np.ndarray:
+    q = kin.solve_ik(target, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    assert q is not None
+    return q
+
+
+def test_primitive_poses_match_pybullet(bullet: Bullet) -> None:
+    geometry, kin = ArmGeometry(), ArmKinematics()
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        q = rng.uniform(kin.lower, kin.upper)
+        hand = (float(rng.uniform()), float(rng.uniform()))
+        bullet.set(q, hand)
+        poses = geometry.primitive_poses(kin.link_frames(q), hand)
+        links = geometry.link_poses(kin.link_frames(q), hand)
+        seen: dict[str, int] = {}
+        for primitive, pose in zip(geometry.primitives, poses, strict=True):
+            index = bullet.links[f"right_{primitive.link}"]
+            state = bullet.client.getLinkState(bullet.robot, index, computeForwardKinematics=True)
+            k = seen[primitive.link] = seen.get(primitive.link, -1) + 1
+            shape = bullet.client.getCollisionShapeData(bullet.robot, index)[k]
+            # pybullet gives collision shapes relative to the link's inertial frame.
+            expected = bullet.pose(state[0], state[1]) @ bullet.pose(shape[5], shape[6])
+            np.testing.assert_allclose(pose, expected, atol=1e-6)
+            np.testing.assert_allclose(
+                links[primitive.link], bullet.pose(state[4], state[5]), atol=1e-6
+            )
+
+
+def test_home_is_free(checker: CollisionChecker) -> None:
+    for hand in ((0.0, 0.0), CLOSED):
+        assert not checker.in_collision(hm.RIGHT_ARM_HOME, hand)
+        assert not checker.robot.self_collision(hm.RIGHT_ARM_HOME, hand)
+        assert not checker.surface_collision(hm.RIGHT_ARM_HOME, hand)
+
+
+def test_hand_below_table_top_hits_the_table_only(checker: CollisionChecker) -> None:
+    q = solve(checker.robot.kinematics, tcp_target(*CLEAR_XY, 0.70))
+    assert checker.surface_collision(q)
+    assert checker.in_collision(q)
+    assert checker.touching_objects(q) == set()
+
+
+def test_can_at_the_hand_is_named_and_can_be_ignored(checker: CollisionChecker) -> None:
+    q = solve(checker.robot.kinematics, tcp_target(*CAN_XY, TABLE.top_z + 0.09))
+    assert not checker.surface_collision(q, CLOSED)
+    assert checker.touching_objects(q, CLOSED) == {"can"}
+    assert checker.in_collision(q, CLOSED)
+    assert not checker.in_collision(q, CLOSED, ignore=["can"])
+    assert not checker.checker(CLOSED)(q)
+    assert checker.checker(CLOSED, ignore=["can"])(q)
+    with pytest.raises(KeyError):
+        checker.in_collision(q, CLOSED, ignore=["no_such_object"])
+
+
+def test_swept_objects_names_an_object_between_free_ends(checker: CollisionChecker) -> None:
+    kin = checker.robot.kinematics
+    z = TABLE.top_z + 0.09
+    start = solve(kin, tcp_target(CAN_XY[0], CAN_XY[1] + 0.15, z))
+    path = kin.cartesian_path(start, tcp_target(CAN_XY[0], CAN_XY[1] - 0.15, z), 8)
+    assert path is not None
+    assert not checker.in_collision(path[0], CLOSED)
+    assert not checker.in_collision(path[-1], CLOSED)
+    assert checker.swept_objects(path, CLOSED) == {"can"}
+    assert checker.swept_objects(path[:1], CLOSED) == set()
+
+
+def test_interpolate_bounds_the_joint_step() -> None:
+    path = np.array([np.zeros(7), np.full(7, 0.1), np.r_[0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -0.5]])
+    dense = interpolate(path, 0.02)
+    assert np.max(np.abs(np.diff(dense, axis=0))) <= 0.02 + 1e-12
+    for row in path:
+        assert np.min(np.linalg.norm(dense - row, axis=1)) < 1e-12
+
+
+def test_checker_as_ik_accept_gives_free_solutions(checker: CollisionChecker) -> None:
+    kin = checker.robot.kinematics
+    free = checker.checker(CLOSED, objects=False)
+    rng = np.random.default_rng(1)
+    assert kin.solve_ik(tcp_target(*CLEAR_XY, 0.70), None, rng, accept=free) is None
+    for _ in range(5):
+        x, y = rng.uniform(0.75, 1.0), rng.uniform(-0.6, 0.0)
+        q = kin.solve_ik(tcp_target(x, y, TABLE.top_z + 0.08), None, rng, accept=free)
+        assert q is not None
+        assert not checker.surface_collision(q, CLOSED)
+        assert not checker.robot.self_collision(q, CLOSED)
+
+
+def random_scene_configurations(kin: ArmKinematics, n: int) -> list[tuple[np.ndarray, Hand]]:
+    """Half uniform in the limits, half reaching into the objects (where contacts happen)."""
+    rng = np.random.default_rng(3)
+    out: list[tuple[np.ndarray, Hand]] = []
+    while len(out) < n:
+        hand = (float(rng.uniform()), float(rng.uniform()))
+        if len(out) % 2:
+            out.append((rng.uniform(kin.lower, kin.upper), hand))
+            continue
+        _, (x, y, _) = SCENE[str(rng.choice(list(SCENE)))]
+        heading = rng.uniform(-1.0, 1.0)
+        target = tcp_target(
+            x + rng.uniform(-0.15, 0.15),
+            y + rng.uniform(-0.15, 0.15),
+            TABLE.top_z + rng.uniform(0.0, 0.25),
+            (np.cos(heading), np.sin(heading)),
+        )
+        q = kin.solve_ik(target, None, rng, max_restarts=2)
+        if q is not None:
+            out.append((q, hand))
+    return out
+
+
+def test_in_collision_agrees_with_pybullet(checker: CollisionChecker, bullet: Bullet) -> None:
+    arm = {bullet.links[f"right_{name}"] for name in checker.robot.geometry.links}
+    agree = disagree = in_band = colliding = 0
+    for q, hand in random_scene_configurations(checker.robot.kinematics, 200):
+        bullet.set(q, hand)
+        distance = min(
+            (
+                point[8]
+                for body in bullet.bodies
+                for point in bullet.client.getClosestPoints(bullet.robot, body, 0.01)
+                if point[3] in arm
+            ),
+            default=np.inf,
+        )
+        colliding += distance < 0
+        if abs(distance) <= 0.002:
+            in_band += 1
+        elif checker.in_collision(q, hand, self_collision=False) == (distance < 0):
+            agree += 1
+        else:
+            disagree += 1
+    print(f"pybullet agreement {agree}/{agree + disagree}, {in_band} within 2 mm, {colliding} hits")
+    assert colliding > 40
+    assert disagree <= 0.01 * (agree + disagree)
+
+
+def test_self_collision_agrees_with_pybullet(checker: CollisionChecker, bullet: Bullet) -> None:
+    pairs = [
+        (bullet.links[f"right_{a}"], bullet.links[f"right_{b}"])
+        for first, second in SELF_COLLISION_GROUPS
+        for a, b in itertools.product(first, second)
+    ]
+    kin = checker.robot.kinematics
+    rng = np.random.default_rng(5)
+    hits = 0
+    for _ in range(200):
+        q, hand = rng.uniform(kin.lower, kin.upper), (float(rng.uniform()), float(rng.uniform()))
+        bullet.set(q, hand)
+        distance = min(
+            (
+                point[8]
+                for a, b in pairs
+                for point in bullet.client.getClosestPoints(
+                    bullet.robot, bullet.robot, 0.01, linkIndexA=a, linkIndexB=b
+                )
+            ),
+            default=np.inf,
+        )
+        hits += distance < 0
+        if abs(distance) > 0.002:
+            assert checker.robot.self_collision(q, hand) == (distance < 0)
+    assert hits > 0
