@@ -35,7 +35,7 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     base: ClutterRetrieveEnv = env.unwrapped  # type: ignore[assignment]
     try:
         obs, info = env.reset(seed=seed, options={"scene": chosen})
-        policy = DirectGraspPolicy(base.waypoints, get_surface(chosen.surface).top_z, seed)
+        policy = DirectGraspPolicy(base.waypoints, get_surface(chosen.surface), seed)
         steps, reward_sum, terminated, truncated = 0, 0.0, False, False
         with tqdm(desc="demo (simulated s)", bar_format="{desc}: {n:.1f} [{elapsed}]") as bar:
             base.start_recording(

@@ -4,8 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.kinematics import ArmKinematics
-from planners.direct_grasp import GraspRequest, PlanningError, plan_direct_grasp
+from clutter_gym.world import Surface
+from planners.collision import make_checker
+from planners.direct_grasp import (
+    PRESHAPE_CLOSURE,
+    GraspRequest,
+    PlanningError,
+    plan_direct_grasp,
+)
 
 
 class DirectGraspPolicy:
@@ -15,11 +23,19 @@ class DirectGraspPolicy:
     fails, `self.failure` holds the reason and the policy holds the arm still.
     """
 
-    def __init__(self, waypoints: int, surface_z: float, seed: int = 0) -> None:
+    def __init__(self, waypoints: int, surface: Surface, seed: int = 0) -> None:
         self.kinematics = ArmKinematics("right")
         self.waypoints = waypoints
-        self.surface_z = surface_z
+        self.surface_z = surface.top_z
+        # Every IK solution is checked with fcl against the table or shelf and the arm itself.
+        self.collision_free = make_checker(surface, {}).checker(
+            hand=(0.0, PRESHAPE_CLOSURE), objects=False
+        )
         self.rng = np.random.default_rng(seed)
+        self._bounds = (
+            np.r_[self.kinematics.lower, 0.0, 0.0],
+            np.r_[self.kinematics.upper, 1.0, 1.0],
+        )
         self.plan: np.ndarray | None = None
         self.failure = ""
 
@@ -32,9 +48,13 @@ class DirectGraspPolicy:
                 surface_z=self.surface_z,
             )
             try:
-                self.plan = plan_direct_grasp(self.kinematics, request, self.waypoints, self.rng)
+                self.plan = plan_direct_grasp(
+                    self.kinematics, request, self.waypoints, self.rng, self.collision_free
+                )
                 return self.plan
             except PlanningError as error:
                 self.failure = str(error)
-        hold = np.r_[obs["arm_joints"], 0.0, float(obs["hand"][1]) / 2.443]
+        spread = float(obs["hand"][0]) / hm.HAND_SPREAD_RANGE[1]
+        closure = float(obs["hand"][1]) / hm.HAND_PROXIMAL_RANGE[1]
+        hold = np.clip(np.r_[obs["arm_joints"], spread, closure], *self._bounds)
         return np.tile(hold, (self.waypoints, 1)).astype(np.float32)

@@ -18,6 +18,7 @@ from agents.scripted import DirectGraspPolicy
 from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.scene import scene_to_dict
+from clutter_gym.world import TABLE
 from planners.direct_grasp import approach_rotation
 
 CAN_SCENE = {
@@ -236,7 +237,7 @@ def test_out_of_limit_waypoints_are_clipped_and_reported() -> None:
 def test_direct_grasp_lifts_the_can_by_finger_contact() -> None:
     env = make()
     obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
-    policy = DirectGraspPolicy(env.action_space.shape[0], surface_z=0.735)
+    policy = DirectGraspPolicy(env.waypoints, TABLE)
     obs, reward, terminated, truncated, info = env.step(policy(obs))
     assert policy.failure == ""
     assert info["is_success"] and terminated and not truncated and reward == 1.0
