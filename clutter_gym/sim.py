@@ -120,20 +120,15 @@ class Simulator:
         c = self.client
         prims = spec.primitives
         frames = [[0.0, 0.0, p.z] for p in prims]
-        col = c.createCollisionShapeArray(
-            shapeTypes=[_shape_type(p.shape) for p in prims],
-            halfExtents=[_half_extents(p.shape, p.size) for p in prims],
-            radii=[p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
-            lengths=[p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
-            collisionFramePositions=frames,
-        )
+        shapes = {
+            "shapeTypes": [_shape_type(p.shape) for p in prims],
+            "halfExtents": [_half_extents(p.shape, p.size) for p in prims],
+            "radii": [p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
+            "lengths": [p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
+        }
+        col = c.createCollisionShapeArray(**shapes, collisionFramePositions=frames)
         vis = c.createVisualShapeArray(
-            shapeTypes=[_shape_type(p.shape) for p in prims],
-            halfExtents=[_half_extents(p.shape, p.size) for p in prims],
-            radii=[p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
-            lengths=[p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
-            visualFramePositions=frames,
-            rgbaColors=[list(spec.rgba)] * len(prims),
+            **shapes, visualFramePositions=frames, rgbaColors=[list(spec.rgba)] * len(prims)
         )
         x, y, theta = (float(v) for v in pose)
         body_id = c.createMultiBody(
