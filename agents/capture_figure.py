@@ -96,14 +96,15 @@ def capture_figure(name: str, out: Path, validation: Path | None = None, seed: i
         report = json.loads(validation.read_text())
         gx, gy, mask = _region_mask(region, report["push_distance_m"])
         ax.contour(gx, gy, mask, levels=[0.5], colors=["k"], linewidths=1.5)
-        trials = [t for t in report["trials"] if t["rotation_deg"] == 0.0]
+        # The unrotated scene, and for boxes the theta = 0 slice the contours are drawn for.
+        trials = [t for t in report["trials"] if t["rotation_deg"] == 0.0 and t["pose"][2] == 0.0]
         for outcome, marker, colour in (("success", "o", "g"), ("failure", "x", "r")):
             pts = np.array([t["pose"][:2] for t in trials if t["outcome"].startswith(outcome)])
             if len(pts):
                 ax.scatter(pts[:, 0], pts[:, 1], s=9, marker=marker, c=colour, label=outcome)
         summary = report["rotation_0deg"]
         ax.set_title(
-            f"(c) pybullet: {summary['failures_inside']} failures inside, "
+            f"(c) pybullet: {summary['failures_inside']} failures inside (all theta), "
             f"tightness {summary['tightness']:.2f}"
         )
         ax.legend(loc="upper right", fontsize=8)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -100,3 +101,11 @@ def test_bench_capture_writes_json(tmp_path: Path) -> None:
     assert main(["bench", "capture", "--objects", "soda_can", "--json", str(out)]) == 0
     entry = json.loads(out.read_text())["push_grasp/soda_can"]
     assert entry["build_s"] > entry["cached_load_s"] and entry["query_50_ms"] > 0
+
+
+def test_written_files_get_normal_permissions(tmp_path: Path) -> None:
+    out = tmp_path / "scene.json"
+    main(["scene", "--level", "none", "--seed", "0", "--out", str(out)])
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() would, not mkstemp's 0600
