@@ -382,7 +382,7 @@ def _cached(
         pass
     arrays = build()
     buffer = io.BytesIO()
-    np.savez(buffer, key=np.array(key), **arrays)  # type: ignore[arg-type]  # numpy's stub
+    np.savez(buffer, key=np.array(key), **arrays)  # type: ignore[arg-type]  # numpy's hints reject **arrays
     atomic_write_bytes(path, buffer.getvalue())
     return arrays
 
