@@ -1,0 +1,180 @@
+"""GoTo of Dogar & Srinivasa's framework: a collision-free joint-space path of HERB's 7-DoF arm.
+
+Why this module exists: the pushing and grasping actions end where they start their motion, so
+the arm needs a plain point-to-point planner between configurations. It wraps OMPL's RRTConnect
+on a bounded ``RealVectorStateSpace(7)`` and takes the collision test as a callable, so the
+caller decides what counts as free (surface only, objects, ignored objects).
+
+OMPL 2.0.1's Python bindings crash on ``list(state)``/``np.array(state)`` and abort on bad
+input, so states are read by index and every request is validated before OMPL sees it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from planners.collision import interpolate
+
+DOF = 7
+
+
+@dataclass(frozen=True)
+class GoToResult:
+    """Outcome of one GoTo request; ``reason`` says why it failed and is empty on success."""
+
+    path: np.ndarray | None
+    """(N, 7) joint waypoints from start to goal, or None on failure."""
+    success: bool
+    reason: str
+    planning_time: float
+    """Wall-clock seconds of the whole request (validation, planning, simplification, checks)."""
+    collision_checks: int
+    """Calls of ``is_valid`` made for this request, by OMPL and by the checks here."""
+
+
+def _request_error(
+    start: np.ndarray, goal: np.ndarray, lower: np.ndarray, upper: np.ndarray, time_budget: float
+) -> str:
+    """Why the request cannot be planned, or "" if it can; checked here because OMPL aborts."""
+    if not (math.isfinite(time_budget) and time_budget > 0):
+        return f"time budget must be > 0 (got {time_budget})"
+    for name, q in (("start", start), ("goal", goal), ("lower", lower), ("upper", upper)):
+        if q.shape != (DOF,):
+            return f"{name} must have shape ({DOF},) (got {q.shape})"
+        if not np.all(np.isfinite(q)):
+            return f"{name} has non-finite values"
+    if np.any(lower >= upper):
+        return "joint limits must satisfy lower < upper in every joint"
+    for name, q in (("start", start), ("goal", goal)):
+        outside = np.flatnonzero((q < lower) | (q > upper))
+        if outside.size:
+            i = int(outside[0])
+            return (
+                f"{name} outside joint limits (joint {i}: {q[i]:.4f}, "
+                f"range [{lower[i]:.4f}, {upper[i]:.4f}])"
+            )
+    return ""
+
+
+def _reseed(seed: int) -> None:
+    """Seed OMPL's RNGs created from now on; OMPL ignores seed 0, so seeds are shifted by one.
+
+    Re-seeding logs an error ("generation already started") although RNGs created afterwards are
+    seeded deterministically, which is all a planner built after this needs; the log is muted."""
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    try:
+        ou.RNG.setSeed(seed + 1)
+    finally:
+        ou.setLogLevel(level)
+
+
+def _ompl_plan(
+    start: np.ndarray,
+    goal: np.ndarray,
+    is_free: Callable[[np.ndarray], bool],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    time_budget: float,
+    resolution: float,
+) -> np.ndarray | None:
+    """RRTConnect then ``simplifyMax``; the waypoints, or None if no exact solution was found."""
+    space = ob.RealVectorStateSpace(DOF)
+    bounds = ob.RealVectorBounds(DOF)
+    for i in range(DOF):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    setup = og.SimpleSetup(space)
+    setup.setStateValidityChecker(
+        lambda state: is_free(np.array([state[i] for i in range(DOF)], dtype=float))
+    )
+    info = setup.getSpaceInformation()
+    # OMPL's resolution is a fraction of the space's extent and steps along the L2 metric, so a
+    # step of `resolution` in L2 moves no joint by more than `resolution` rad.
+    info.setStateValidityCheckingResolution(resolution / space.getMaximumExtent())
+    setup.setPlanner(og.RRTConnect(info))
+    endpoints = []
+    for q in (start, goal):
+        state = space.allocState()
+        for i in range(DOF):
+            state[i] = float(q[i])
+        endpoints.append(state)
+    setup.setStartAndGoalStates(endpoints[0], endpoints[1])
+    status = setup.solve(time_budget)
+    if status.getStatus() != ob.PlannerStatus.EXACT_SOLUTION:
+        return None
+    path = setup.getSolutionPath()
+    og.PathSimplifier(info).simplifyMax(path)
+    return np.array(
+        [[path.getState(k)[i] for i in range(DOF)] for k in range(path.getStateCount())],
+        dtype=float,
+    )
+
+
+def plan_goto(
+    start: np.ndarray,
+    goal: np.ndarray,
+    is_valid: Callable[[np.ndarray], bool],
+    lower: np.ndarray,
+    upper: np.ndarray,
+    time_budget: float = 2.0,
+    seed: int = 0,
+    resolution: float = 0.01,
+) -> GoToResult:
+    """Plan a collision-free joint path from start to goal within the joint limits.
+
+    ``is_valid(q)`` is True when configuration q is free. The path is simplified and then every
+    straight segment is re-checked so that no joint moves more than ``resolution`` rad between
+    checked configurations; the same seed and inputs give the same path."""
+    began = time.perf_counter()
+    checks = 0
+
+    def is_free(q: np.ndarray) -> bool:
+        nonlocal checks
+        checks += 1
+        return bool(is_valid(q))
+
+    def result(path: np.ndarray | None, reason: str) -> GoToResult:
+        return GoToResult(
+            path=path,
+            success=path is not None,
+            reason=reason,
+            planning_time=time.perf_counter() - began,
+            collision_checks=checks,
+        )
+
+    q0, q1 = (np.asarray(q, dtype=float) for q in (start, goal))
+    lo, hi = (np.asarray(b, dtype=float) for b in (lower, upper))
+    error = _request_error(q0, q1, lo, hi, float(time_budget))
+    if not error and not (math.isfinite(resolution) and resolution > 0):
+        error = f"resolution must be > 0 (got {resolution})"
+    if not error and seed < 0:
+        error = f"seed must be >= 0 (got {seed})"
+    if error:
+        return result(None, error)
+    if not is_free(q0):
+        return result(None, "start configuration is in collision")
+    if not is_free(q1):
+        return result(None, "goal configuration is in collision")
+
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LogLevel.LOG_WARN)
+    try:
+        _reseed(seed)
+        path = _ompl_plan(q0, q1, is_free, lo, hi, float(time_budget), resolution)
+    finally:
+        ou.setLogLevel(level)
+    if path is None:
+        return result(None, f"no path found within {time_budget:g} s")
+    if not all(is_free(q) for q in interpolate(path, resolution)):
+        return result(None, f"simplified path collides when re-checked at {resolution:g} rad")
+    return result(path, "")

@@ -1,0 +1,140 @@
+"""Tests of the GoTo joint-space planner on HERB's right arm, with the fcl collision layer."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from clutter_gym.objects import get_object
+from clutter_gym.robot.herb_model import RIGHT_ARM_HOME
+from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.world import TABLE
+from planners.collision import CollisionChecker, interpolate, make_checker
+from planners.goto import GoToResult, plan_goto
+
+KIN = ArmKinematics("right")
+#: Hand over the table left of the box and right of it: free, but the straight joint-space line
+#: between them sweeps through a large box at `BOX_POSE`.
+Q_A = np.array([4.55, -0.71, 2.4, -0.71, -0.86, 0.91, -2.36])
+Q_B = np.array([4.2, -0.44, 0.16, 1.76, -0.84, -0.81, -0.2])
+BOX_POSE = (0.95, -0.25, 0.0)
+RESOLUTION = 0.01
+
+
+@pytest.fixture(scope="module")
+def table_free() -> Callable[[np.ndarray], bool]:
+    return make_checker(TABLE, {}).checker(objects=False)
+
+
+@pytest.fixture(scope="module")
+def box_checker() -> CollisionChecker:
+    return make_checker(TABLE, {"box": (get_object("large_box"), BOX_POSE)})
+
+
+def plan(
+    start: np.ndarray,
+    goal: np.ndarray,
+    is_valid: Callable[[np.ndarray], bool],
+    time_budget: float = 2.0,
+    seed: int = 0,
+) -> GoToResult:
+    return plan_goto(
+        start, goal, is_valid, KIN.lower, KIN.upper, time_budget, seed, resolution=RESOLUTION
+    )
+
+
+def assert_valid_path(
+    result: GoToResult, start: np.ndarray, goal: np.ndarray, is_valid: Callable[[np.ndarray], bool]
+) -> None:
+    assert result.success, result.reason
+    assert result.reason == ""
+    assert result.path is not None
+    assert result.path.ndim == 2
+    assert result.path.shape[1] == 7
+    np.testing.assert_allclose(result.path[0], start)
+    np.testing.assert_allclose(result.path[-1], goal)
+    assert np.all(result.path >= KIN.lower)
+    assert np.all(result.path <= KIN.upper)
+    assert all(is_valid(q) for q in interpolate(result.path, RESOLUTION))
+    assert result.collision_checks > 0
+
+
+def test_free_space_plan(table_free: Callable[[np.ndarray], bool]) -> None:
+    assert table_free(RIGHT_ARM_HOME)
+    assert table_free(Q_B)
+    result = plan(RIGHT_ARM_HOME, Q_B, table_free)
+    assert_valid_path(result, RIGHT_ARM_HOME, Q_B, table_free)
+
+
+def test_plans_around_obstacle(box_checker: CollisionChecker) -> None:
+    free = box_checker.checker()
+    assert free(Q_A)
+    assert free(Q_B)
+    assert box_checker.swept_objects(np.array([Q_A, Q_B])) == {"box"}
+    result = plan(Q_A, Q_B, free, time_budget=5.0)
+    assert_valid_path(result, Q_A, Q_B, free)
+    assert result.path is not None
+    assert box_checker.swept_objects(result.path) == set()
+
+
+def test_same_seed_same_path(box_checker: CollisionChecker) -> None:
+    free = box_checker.checker()
+    first = plan(Q_A, Q_B, free, time_budget=5.0, seed=7)
+    second = plan(Q_A, Q_B, free, time_budget=5.0, seed=7)
+    assert first.success
+    assert second.success
+    assert first.path is not None
+    assert second.path is not None
+    np.testing.assert_array_equal(first.path, second.path)
+
+
+def test_start_in_collision() -> None:
+    result = plan(Q_A, Q_B, lambda q: not np.array_equal(q, Q_A))
+    assert not result.success
+    assert result.path is None
+    assert result.reason == "start configuration is in collision"
+    assert result.collision_checks == 1
+
+
+def test_goal_in_collision() -> None:
+    result = plan(Q_A, Q_B, lambda q: not np.array_equal(q, Q_B))
+    assert not result.success
+    assert result.path is None
+    assert result.reason == "goal configuration is in collision"
+
+
+def test_goal_outside_joint_limits() -> None:
+    goal = Q_B.copy()
+    goal[3] = KIN.upper[3] + 0.1
+    result = plan(Q_A, goal, lambda q: True)
+    assert not result.success
+    assert result.reason.startswith("goal outside joint limits (joint 3: ")
+    assert result.collision_checks == 0
+
+
+@pytest.mark.parametrize("start", [np.zeros(6), np.full(7, np.nan)])
+def test_malformed_start(start: np.ndarray) -> None:
+    result = plan(start, Q_B, lambda q: True)
+    assert not result.success
+    assert result.reason.startswith("start ")
+
+
+@pytest.mark.parametrize("budget", [0.0, -1.0, float("nan")])
+def test_time_budget_must_be_positive(budget: float) -> None:
+    result = plan(Q_A, Q_B, lambda q: True, time_budget=budget)
+    assert not result.success
+    assert result.reason.startswith("time budget must be > 0 (got ")
+    assert result.collision_checks == 0
+
+
+def test_enclosed_goal_has_no_path() -> None:
+    def near_start_or_goal(q: np.ndarray) -> bool:
+        return bool(np.max(np.abs(q - Q_A)) < 0.05 or np.array_equal(q, Q_B))
+
+    result = plan(Q_A, Q_B, near_start_or_goal, time_budget=0.5)
+    assert not result.success
+    assert result.path is None
+    assert result.reason == "no path found within 0.5 s"
+    assert result.collision_checks > 2
