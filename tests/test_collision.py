@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pybullet
 import pytest
-from pybullet_utils.bullet_client import BulletClient
+from herb_bullet import HerbBullet, load_herb, transform
 
 from clutter_gym.objects import OBJECTS, ObjectSpec, Pose
 from clutter_gym.robot import herb_model as hm
@@ -34,37 +34,21 @@ CLEAR_XY = (0.85, 0.30)
 
 
 @dataclass
-class Bullet:
-    """HERB (left side parked, exact cylinders) and the scene in a pybullet client."""
+class Bullet(HerbBullet):
+    """HERB (left side parked, exact cylinders) and the scene's static bodies."""
 
-    client: BulletClient
-    robot: int
-    joints: dict[str, int]
-    links: dict[str, int]
     bodies: list[int]
 
     def set(self, q: np.ndarray, hand: Hand) -> None:
         names = hm.arm_joint_names("right") + hm.hand_joint_names("right")
-        for name, value in zip(names, [*q, *hand_targets(*hand)], strict=True):
-            self.client.resetJointState(self.robot, self.joints[name], float(value))
-
-    def pose(self, position: tuple[float, ...], quaternion: tuple[float, ...]) -> np.ndarray:
-        t = np.eye(4)
-        t[:3, :3] = np.reshape(self.client.getMatrixFromQuaternion(quaternion), (3, 3))
-        t[:3, 3] = position
-        return t
+        self.set_joints(names, [*q, *hand_targets(*hand)])
 
 
 @pytest.fixture(scope="module")
 def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
-    c = BulletClient(connection_mode=pybullet.DIRECT)
     urdf = hm.write_herb_urdf(Path(tmp_path_factory.mktemp("urdf")), hm.parked_left_side())
-    robot = c.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_IMPLICIT_CYLINDER)
-    joints, links = {}, {}
-    for j in range(c.getNumJoints(robot)):
-        info = c.getJointInfo(robot, j)
-        joints[info[1].decode()] = j
-        links[info[12].decode()] = j
+    herb = load_herb(urdf, pybullet.URDF_USE_IMPLICIT_CYLINDER)
+    c = herb.client
     bodies = [
         c.createMultiBody(
             0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=b.half_extents), -1, b.centre
@@ -82,7 +66,7 @@ def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
             )
             orientation = c.getQuaternionFromEuler((0.0, 0.0, theta))
             bodies.append(c.createMultiBody(0, shape, -1, (x, y, TABLE.top_z + p.z), orientation))
-    yield Bullet(c, robot, joints, links, bodies)
+    yield Bullet(herb.client, herb.robot, herb.joints, herb.links, bodies)
     c.disconnect()
 
 
@@ -122,10 +106,10 @@ def test_primitive_poses_match_pybullet(bullet: Bullet) -> None:
             k = seen[primitive.link] = seen.get(primitive.link, -1) + 1
             shape = bullet.client.getCollisionShapeData(bullet.robot, index)[k]
             # pybullet gives collision shapes relative to the link's inertial frame.
-            expected = bullet.pose(state[0], state[1]) @ bullet.pose(shape[5], shape[6])
+            expected = transform(state[0], state[1]) @ transform(shape[5], shape[6])
             np.testing.assert_allclose(pose, expected, atol=1e-6)
             np.testing.assert_allclose(
-                links[primitive.link], bullet.pose(state[4], state[5]), atol=1e-6
+                links[primitive.link], transform(state[4], state[5]), atol=1e-6
             )
 
 

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pybullet
 import pytest
-from pybullet_utils.bullet_client import BulletClient
+from herb_bullet import HerbBullet, load_herb
 
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.kinematics import ArmKinematics
@@ -18,42 +17,12 @@ from clutter_gym.robot.kinematics import ArmKinematics
 TABLE_TOP = 0.735
 
 
-@dataclass
-class Sim:
-    """A pybullet client with HERB loaded and name -> index maps."""
-
-    client: BulletClient
-    robot: int
-    joints: dict[str, int]
-    links: dict[str, int]
-
-    def set_arm(self, side: str, q: np.ndarray) -> None:
-        for name, value in zip(hm.arm_joint_names(side), q, strict=True):
-            self.client.resetJointState(self.robot, self.joints[name], float(value))
-
-    def link_pose(self, name: str) -> np.ndarray:
-        state = self.client.getLinkState(
-            self.robot, self.links[name], computeForwardKinematics=True
-        )
-        pose = np.eye(4)
-        pose[:3, :3] = np.reshape(self.client.getMatrixFromQuaternion(state[5]), (3, 3))
-        pose[:3, 3] = state[4]
-        return pose
-
-
-def load_sim(directory: Path, flags: int = 0) -> Sim:
-    client = BulletClient(connection_mode=pybullet.DIRECT)
-    robot = client.loadURDF(str(hm.write_herb_urdf(directory)), useFixedBase=True, flags=flags)
-    joints, links = {}, {"herb_base": -1}
-    for j in range(client.getNumJoints(robot)):
-        info = client.getJointInfo(robot, j)
-        joints[info[1].decode()] = j
-        links[info[12].decode()] = j
-    return Sim(client, robot, joints, links)
+def load_sim(directory: Path, flags: int = 0) -> HerbBullet:
+    return load_herb(hm.write_herb_urdf(directory), flags)
 
 
 @pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Sim]:
+def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[HerbBullet]:
     s = load_sim(tmp_path_factory.mktemp("urdf"))
     yield s
     s.client.disconnect()
@@ -128,7 +97,7 @@ def test_primitives_only_and_valid_inertias() -> None:
     assert hand_mass == pytest.approx(1.2, abs=0.1)
 
 
-def test_joint_names_and_limits(sim: Sim) -> None:
+def test_joint_names_and_limits(sim: HerbBullet) -> None:
     c = sim.client
     for side in hm.SIDES:
         for i, name in enumerate(hm.arm_joint_names(side)):
@@ -150,7 +119,7 @@ def test_joint_names_and_limits(sim: Sim) -> None:
             assert f"{side}_{link}" in sim.links
 
 
-def test_pybullet_fk_matches_dh_and_arm_kinematics(sim: Sim) -> None:
+def test_pybullet_fk_matches_dh_and_arm_kinematics(sim: HerbBullet) -> None:
     rng = np.random.default_rng(0)
     kin = ArmKinematics("right")
     for q in rng.uniform(hm.ARM_JOINT_LOWER, hm.ARM_JOINT_UPPER, size=(1000, 7)):
@@ -161,7 +130,7 @@ def test_pybullet_fk_matches_dh_and_arm_kinematics(sim: Sim) -> None:
             assert rot_error(pb[:3, :3], ref[:3, :3]) < 1e-6
 
 
-def test_left_arm_mirrors_right(sim: Sim) -> None:
+def test_left_arm_mirrors_right(sim: HerbBullet) -> None:
     """Mirrored configurations put the hands at mirrored places relative to the shoulders."""
     rng = np.random.default_rng(1)
     shoulders = {side: dh_hand_pose(side, np.zeros(7)) for side in hm.SIDES}
@@ -183,7 +152,7 @@ def test_left_arm_mirrors_right(sim: Sim) -> None:
     assert shoulders["left"][1, 3] == pytest.approx(-shoulders["right"][1, 3], abs=0.005)
 
 
-def test_right_home_hand_above_table_in_front_and_elbow_up(sim: Sim) -> None:
+def test_right_home_hand_above_table_in_front_and_elbow_up(sim: HerbBullet) -> None:
     sim.set_arm("right", hm.RIGHT_ARM_HOME)
     hand = sim.link_pose("right_hand_base")[:3, 3]
     tcp = sim.link_pose("right_hand_tcp")[:3, 3]
@@ -220,7 +189,7 @@ def test_home_and_park_clear_of_self_and_table(tmp_path: Path) -> None:
     c.disconnect()
 
 
-def test_arm_torques_hold_half_kilo_payload(sim: Sim) -> None:
+def test_arm_torques_hold_half_kilo_payload(sim: HerbBullet) -> None:
     """Static gravity torque of arm + hand + 0.5 kg at the tcp stays within the effort limits."""
     c = sim.client
     c.setGravity(0, 0, -9.81)
@@ -245,7 +214,7 @@ def test_arm_torques_hold_half_kilo_payload(sim: Sim) -> None:
     assert np.all(worst < hm.ARM_EFFORT_LIMITS), worst
 
 
-def fingertips(sim: Sim, side: str) -> np.ndarray:
+def fingertips(sim: HerbBullet, side: str) -> np.ndarray:
     tips = []
     for i in (1, 2, 3):
         pose = sim.link_pose(f"{side}_f{i}_dist")
@@ -253,7 +222,7 @@ def fingertips(sim: Sim, side: str) -> np.ndarray:
     return np.array(tips)
 
 
-def test_open_hand_aperture(sim: Sim) -> None:
+def test_open_hand_aperture(sim: HerbBullet) -> None:
     sim.set_arm("right", hm.RIGHT_ARM_HOME)
     for name in hm.hand_joint_names("right"):
         sim.client.resetJointState(sim.robot, sim.joints[name], 0.0)
