@@ -249,17 +249,51 @@ def _start_poses(x_start: float, ys: np.ndarray, thetas: np.ndarray, n_par: int)
     return np.tile(nodes, (n_par, 1))
 
 
+@dataclass(frozen=True)
+class _StartGrid:
+    """Push starts: every (y, theta) node just ahead of the hand, once per parameter set."""
+
+    x_start: float
+    ys: np.ndarray
+    thetas: np.ndarray
+    mus: np.ndarray
+    cs: np.ndarray
+
+    @property
+    def poses(self) -> np.ndarray:
+        return _start_poses(self.x_start, self.ys, self.thetas, len(self.mus))
+
+    def parameters(self) -> tuple[np.ndarray, np.ndarray]:
+        """(mu_c, c) of every start pose, in `poses` order."""
+        nodes = len(self.ys) * len(self.thetas)
+        return np.repeat(self.mus, nodes), np.repeat(self.cs, nodes)
+
+    def per_node(self, values: np.ndarray) -> np.ndarray:
+        """Per-pose values as (parameter set, y, theta)."""
+        return values.reshape(len(self.mus), len(self.ys), len(self.thetas))
+
+
+def _start_grid(
+    footprint: Footprint, x_front: float, y_range: tuple[float, float], settings: CaptureSettings
+) -> _StartGrid:
+    res = settings.y_resolution if footprint.shape == "circle" else settings.box_y_resolution
+    mus, cs = parameter_sets(footprint, settings)
+    return _StartGrid(
+        x_start=x_front + footprint.bounding_radius + 2 * settings.step,
+        ys=_y_grid(*y_range, res),
+        thetas=_theta_grid(footprint, settings),
+        mus=mus,
+        cs=cs,
+    )
+
+
 def _build_push_grasp(
     footprint: Footprint, hand: PushGraspProfile, settings: CaptureSettings
 ) -> dict[str, np.ndarray]:
-    bound = footprint.bounding_radius
     _, x_front, _, y_max = hand.pusher.bounds
-    x_start = x_front + bound + 2 * settings.step
-    res = settings.y_resolution if footprint.shape == "circle" else settings.box_y_resolution
-    ys = _y_grid(-(y_max + bound), y_max + bound, res)
-    thetas = _theta_grid(footprint, settings)
-    mus, cs = parameter_sets(footprint, settings)
-    poses = _start_poses(x_start, ys, thetas, len(mus))
+    reach = y_max + footprint.bounding_radius
+    grid = _start_grid(footprint, x_front, (-reach, reach), settings)
+    poses = grid.poses
     total = len(poses)
     tip_r = hand.pusher.circles[0].radius
     captured = np.zeros(total, dtype=bool)
@@ -285,35 +319,29 @@ def _build_push_grasp(
         beside = (x < hand.grasp_line) & (np.abs(state.poses[:, 1]) > hand.half_gap + 2 * tip_r)
         return settled | beside
 
-    length = settings.d_max + x_start
-    mu_all, c_all = np.repeat(mus, total // len(mus)), np.repeat(cs, total // len(cs))
+    length = settings.d_max + grid.x_start
+    mu_all, c_all = grid.parameters()
     result = simulate_push(
         footprint, hand.pusher, poses, mu_all, c_all, length, settings.step, watch=watch
     )
     open_end = np.isinf(s_req) & captured & (result.pushed >= length - 1e-9)
     s_req[open_end] = s_cap[open_end]
-    shape = (len(mus), len(ys), len(thetas))
     return {
-        "ys": ys,
-        "thetas": thetas,
-        "x_start": np.array(x_start),
-        "s_req": s_req.reshape(shape).max(0),
-        "s_contact": s_contact.reshape(shape).min(0),
+        "ys": grid.ys,
+        "thetas": grid.thetas,
+        "x_start": np.array(grid.x_start),
+        "s_req": grid.per_node(s_req).max(0),
+        "s_contact": grid.per_node(s_contact).min(0),
     }
 
 
 def _build_sweep(
     footprint: Footprint, hand: SweepProfile, settings: CaptureSettings
 ) -> dict[str, np.ndarray]:
-    bound = footprint.bounding_radius
     _, x_front, _, _ = hand.pusher.bounds
-    x_start = x_front + bound + 2 * settings.step
     lo, hi = hand.span
-    res = settings.y_resolution if footprint.shape == "circle" else settings.box_y_resolution
-    ys = _y_grid(lo, hi, res)
-    thetas = _theta_grid(footprint, settings)
-    mus, cs = parameter_sets(footprint, settings)
-    poses = _start_poses(x_start, ys, thetas, len(mus))
+    grid = _start_grid(footprint, x_front, (lo, hi), settings)
+    poses = grid.poses
     total = len(poses)
     s_contact = np.full(total, np.inf)
     s_escape = np.full(total, np.inf)
@@ -326,16 +354,15 @@ def _build_sweep(
         s_escape[ids[lost]] = s[lost]
         return lost | state.stationary
 
-    length = settings.d_max + x_start
-    mu_all, c_all = np.repeat(mus, total // len(mus)), np.repeat(cs, total // len(cs))
+    length = settings.d_max + grid.x_start
+    mu_all, c_all = grid.parameters()
     simulate_push(footprint, hand.pusher, poses, mu_all, c_all, length, settings.step, watch=watch)
-    shape = (len(mus), len(ys), len(thetas))
     return {
-        "ys": ys,
-        "thetas": thetas,
-        "x_start": np.array(x_start),
-        "s_contact": s_contact.reshape(shape).min(0),
-        "s_escape": s_escape.reshape(shape).min(0),
+        "ys": grid.ys,
+        "thetas": grid.thetas,
+        "x_start": np.array(grid.x_start),
+        "s_contact": grid.per_node(s_contact).min(0),
+        "s_escape": grid.per_node(s_escape).min(0),
     }
 
 
