@@ -50,7 +50,7 @@ def _draw_hand(ax: Axes, aperture: float) -> None:
         ax.add_patch(CirclePatch(circle.center, circle.radius, color="0.25", zorder=3))
 
 
-def _draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any) -> None:
+def draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any) -> None:
     x, y, theta = pose
     if footprint.shape == "circle":
         ax.add_patch(CirclePatch((x, y), footprint.radius, fill=False, **style))
@@ -88,7 +88,7 @@ def capture_figure(name: str, out: Path, validation: Path | None = None, seed: i
     gx, gy, mask = _region_mask(region, distance)
     ax.contourf(gx, gy, mask, levels=[0.5, 1.5], colors=["#cfe8cf"])
     for sample, ok in zip(samples, inside, strict=True):
-        _draw_outline(ax, spec.footprint, sample, color="g" if ok else "r", lw=0.6)
+        draw_outline(ax, spec.footprint, sample, color="g" if ok else "r", lw=0.6)
     ax.set_title(f"(b) sigma3 samples in the {distance} m region: {inside.sum()}/50")
 
     if validation is not None:

@@ -32,6 +32,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from clutter_gym.files import atomic_write_bytes, cache_dir
 from clutter_gym.objects import Footprint
@@ -40,11 +41,13 @@ from planners.hand2d import (
     PushGraspProfile,
     SweepProfile,
     check_fits,
+    default_aperture,
     push_grasp_profile,
     sweep_profile,
 )
 from planners.pushing import (
     DiscPressure,
+    Pusher,
     PushState,
     RectanglePressure,
     RimPressure,
@@ -180,29 +183,76 @@ class CaptureRegion:
         inside, d = self.query(poses)
         return inside & (d <= push_distance)
 
-    def evolve(self, poses: np.ndarray, push_distance: float, stages: int) -> np.ndarray:
-        """ν_o (§2.2.7) for sample poses (N, 3): their hand-frame poses after each of ``stages``
-        equal parts of the push, under every (mu_c, c) the region was built for, shape
-        (stages + 1, P, N, 3). Stage k's hand has advanced k * push_distance / stages along its
-        x; the union of the footprints over stages and P bounds the volume the object sweeps."""
-        p = _check_poses(poses)
-        if not (math.isfinite(push_distance) and push_distance >= 0) or stages < 1:
-            raise ValueError("push_distance must be >= 0 and stages >= 1")
-        checkpoints = np.linspace(0.0, push_distance, stages + 1)[1:]
-        n_par = len(self.mus)
-        tiled = np.tile(p, (n_par, 1))
-        result = simulate_push(
+    def evolve(
+        self,
+        poses: np.ndarray,
+        push_distance: float,
+        stages: int,
+        step: float | None = None,
+        parameters: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """ν_o (§2.2.7) for sample poses (N, 3): their poses in the moving hand's frame after
+        each of ``stages`` equal parts of the push, under every (mu_c, c) the region was built
+        for, shape (stages + 1, P, N, 3). Stage k's hand has advanced k * push_distance / stages
+        along its x; the union of the footprints over stages and P bounds the volume the object
+        sweeps. Poses of shape (P, N, 3), one row per (mu_c, c), continue an evolution.
+        ``step`` overrides the simulation step the region was built with; ``parameters``
+        selects (mu_c, c) sets by index (default all; see `extreme_parameters`)."""
+        chosen = slice(None) if parameters is None else parameters
+        return _evolve(
             self.footprint,
             push_grasp_profile(self.aperture).pusher,
-            tiled,
-            np.repeat(self.mus, len(p)),
-            np.repeat(self.cs, len(p)),
+            poses,
             push_distance,
-            self.step,
-            record=checkpoints,
+            stages,
+            self.mus[chosen],
+            self.cs[chosen],
+            step or self.step,
         )
-        out = np.concatenate([tiled[None], result.recorded], axis=0)
-        return out.reshape(stages + 1, n_par, len(p), 3)
+
+
+def extreme_parameters(mus: np.ndarray, cs: np.ndarray) -> np.ndarray:
+    """Indices of the (mu_c, c) sets at the corners of the grid (lowest and highest finger
+    friction with the most and least concentrated pressure): a quarter of a box's sets, which
+    bound the spread of the pushed motion in practice, for estimating nu_o quickly."""
+    wanted = {(mu, c) for mu in (mus.min(), mus.max()) for c in (cs.min(), cs.max())}
+    return np.array([i for i, pair in enumerate(zip(mus, cs, strict=True)) if pair in wanted])
+
+
+def _evolve(
+    footprint: Footprint,
+    pusher: Pusher,
+    poses: np.ndarray,
+    distance: float,
+    stages: int,
+    mus: np.ndarray,
+    cs: np.ndarray,
+    step: float,
+) -> np.ndarray:
+    n_par = len(mus)
+    raw = np.asarray(poses, dtype=float)
+    if raw.ndim == 3:  # (P, N, 3): continuing an evolution, one row of poses per (mu_c, c)
+        if raw.shape[0] != n_par:
+            raise ValueError(f"poses have {raw.shape[0]} parameter rows; the region has {n_par}")
+        tiled = _check_poses(raw.reshape(-1, 3))
+    else:
+        tiled = np.tile(_check_poses(raw), (n_par, 1))
+    n = len(tiled) // n_par
+    if not (math.isfinite(distance) and distance >= 0) or stages < 1:
+        raise ValueError(f"distance must be >= 0 (got {distance}) and stages >= 1 (got {stages})")
+    checkpoints = np.linspace(0.0, distance, stages + 1)[1:]
+    result = simulate_push(
+        footprint,
+        pusher,
+        tiled,
+        np.repeat(mus, n),
+        np.repeat(cs, n),
+        distance,
+        step,
+        record=checkpoints,
+    )
+    out = np.concatenate([tiled[None], result.recorded], axis=0)
+    return out.reshape(stages + 1, n_par, n, 3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -211,11 +261,15 @@ class SweepRegion:
     touched by the sweep and keep its centre within ``span`` along y while being pushed."""
 
     footprint: Footprint
+    aperture: float
     d_max: float
     grid: _Grid
     s_contact: np.ndarray
     s_escape: np.ndarray
     span: tuple[float, float]
+    mus: np.ndarray
+    cs: np.ndarray
+    step: float
 
     def query(
         self, poses: np.ndarray, distance: float | None = None
@@ -233,6 +287,29 @@ class SweepRegion:
         escape = self.s_escape.ravel()[flat].min(1) + shift
         inside = ok & (contact >= 0) & (contact <= distance) & (escape > distance)
         return inside, np.where(inside, contact, np.inf)
+
+    def evolve(
+        self,
+        poses: np.ndarray,
+        distance: float,
+        stages: int,
+        step: float | None = None,
+        parameters: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """ν_o of a sweep: sweep-frame poses after each of ``stages`` equal parts of a sweep
+        of ``distance``, under every (mu_c, c), shape (stages + 1, P, N, 3) (see
+        `CaptureRegion.evolve`)."""
+        chosen = slice(None) if parameters is None else parameters
+        return _evolve(
+            self.footprint,
+            sweep_profile(self.aperture).pusher,
+            poses,
+            distance,
+            stages,
+            self.mus[chosen],
+            self.cs[chosen],
+            step or self.step,
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -373,6 +450,13 @@ def default_cache_dir() -> Path:
     return cache_dir() / "capture"
 
 
+SHIPPED_DIR = Path(__file__).parent / "data" / "capture"
+"""Regions precomputed offline (the paper does the same, once per object) and shipped with the
+package: the default push-grasp of every graspable object and the sweep of every object. They
+are looked up by the same key as the user cache, so a change to the simulation or settings
+misses them and rebuilds; ``python -m planners.capture`` regenerates them."""
+
+
 def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: CaptureSettings) -> str:
     spec = {
         "version": CACHE_VERSION,
@@ -400,18 +484,28 @@ def _cached(
     key = _cache_key(kind, footprint, aperture, settings)
     digest = hashlib.sha256(key.encode()).hexdigest()[:16]
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    path = directory / f"{kind}_{footprint.shape}_{digest}.npz"
+    name = f"{kind}_{footprint.shape}_{digest}.npz"
+    places = [directory / name] + ([SHIPPED_DIR / name] if cache_dir is None else [])
+    for place in places:
+        arrays = _load(place, key)
+        if arrays is not None:
+            return arrays
+    path = directory / name
+    arrays = build()
+    buffer = io.BytesIO()
+    np.savez(buffer, key=np.array(key), **arrays)  # type: ignore[arg-type]  # numpy's hints reject **arrays
+    atomic_write_bytes(path, buffer.getvalue())
+    return arrays
+
+
+def _load(path: Path, key: str) -> dict[str, np.ndarray] | None:
     try:
         with np.load(path, allow_pickle=False) as data:
             if str(data["key"]) == key:
                 return {k: data[k] for k in data.files if k != "key"}
     except (OSError, ValueError, KeyError, EOFError):
         pass
-    arrays = build()
-    buffer = io.BytesIO()
-    np.savez(buffer, key=np.array(key), **arrays)  # type: ignore[arg-type]  # numpy's hints reject **arrays
-    atomic_write_bytes(path, buffer.getvalue())
-    return arrays
+    return None
 
 
 def push_grasp_region(
@@ -474,11 +568,44 @@ def sweep_region(
     )
     ys = arrays["ys"]
     period = np.pi if footprint.shape == "box" else 0.0
+    mus, cs = parameter_sets(footprint, settings)
     return SweepRegion(
         footprint,
+        aperture,
         settings.d_max,
         _Grid(float(ys[0]), float(ys[1] - ys[0]), period, float(arrays["x_start"])),
         arrays["s_contact"],
         arrays["s_escape"],
         hand.span,
+        mus,
+        cs,
+        settings.step,
     )
+
+
+def push_grasp_apertures(footprint: Footprint) -> tuple[float, ...]:
+    """The apertures the planner searches (§2.2.6): the object's width plus a margin, and for
+    cylinders also the widest (a region per aperture; box regions take a minute each, so boxes
+    use one)."""
+    default = default_aperture(footprint)
+    if footprint.shape == "circle" and MAX_APERTURE - default > 0.02:
+        return (default, MAX_APERTURE)
+    return (default,)
+
+
+def precompute(directory: Path) -> list[Path]:
+    """Build the shipped regions into ``directory``: the default push-grasp of every graspable
+    object and the sweep of every object (the planner's action library uses exactly these)."""
+    from clutter_gym.objects import OBJECTS
+
+    for spec in tqdm(OBJECTS.values(), desc="capture regions", unit="object"):
+        if spec.graspable:
+            for aperture in push_grasp_apertures(spec.footprint):
+                push_grasp_region(spec.footprint, aperture, cache_dir=directory)
+        sweep_region(spec.footprint, cache_dir=directory)
+    return sorted(directory.glob("*.npz"))
+
+
+if __name__ == "__main__":
+    for written in precompute(SHIPPED_DIR):
+        print(written)

@@ -1,10 +1,14 @@
 """One collision layer for the planners: HERB's right arm and hand against the support surface,
 the objects and itself, on python-fcl broad-phase managers.
 
-fcl reports contacts by geometry, not by object, so object geometries are mapped back to the
-object's name by ``id(geometry)``. Planners consume the checks as callables:
-`CollisionChecker.checker` is the ``accept`` predicate of `ArmKinematics.solve_ik`, which is how
-IK avoids the table and the shelf.
+fcl reports contacts by geometry, not by object, so every geometry is mapped back to what it
+belongs to (an object's name, or "robot") by ``id(geometry)``. Planners consume the checks as
+callables: `CollisionChecker.checker` is the ``accept`` predicate of `ArmKinematics.solve_ik`,
+which is how IK avoids the table and the shelf.
+
+`Volume` is the paper's Volume operator (§2.1.2): the union of an object placed at every pose of
+an uncertainty region or of its evolution, or of the robot at densely sampled configurations of a
+trajectory. Avoid volumes, negative goal regions and FindPenetrated are all Volume queries.
 """
 
 from __future__ import annotations
@@ -75,11 +79,111 @@ def _collide(a: fcl.DynamicAABBTreeCollisionManager, b: object, query: _Query) -
     return query
 
 
+ROBOT = "robot"
+"""Label of the robot's shapes in a `Volume`."""
+
+Part = tuple[fcl.CollisionObject, fcl.CollisionGeometry, str]
+"""A placed shape, its geometry (fcl reports contacts by geometry) and its owner's label."""
+
+
+class Volume:
+    """A union of placed fcl shapes, each labelled with its owner (an object name or `ROBOT`).
+
+    Shapes of one owner share their fcl geometries, so ``id(geometry)`` names the owner.
+    Managers are built lazily, once, because volumes are queried far more often than built.
+    """
+
+    def __init__(self, parts: Iterable[Part] = ()) -> None:
+        self.parts: tuple[Part, ...] = tuple(parts)
+        self.owner: dict[int, str] = {id(geometry): label for _, geometry, label in self.parts}
+        self._manager: fcl.DynamicAABBTreeCollisionManager | None = None
+        self._by_label: dict[str, fcl.DynamicAABBTreeCollisionManager] = {}
+
+    @classmethod
+    def of_object(cls, name: str, spec: ObjectSpec, poses: np.ndarray, surface_z: float) -> Volume:
+        """Volume(o, R): object ``name`` placed at every planar pose (N, 3) of a region."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        geometries = [p.fcl_geometry() for p in spec.primitives]
+        parts = []
+        for x, y, theta in poses:
+            for geometry, (_, transform) in zip(
+                geometries, spec.fcl_parts((x, y, theta), surface_z), strict=True
+            ):
+                parts.append((fcl.CollisionObject(geometry, transform), geometry, name))
+        return cls(parts)
+
+    @classmethod
+    def of_robot(
+        cls, robot: RobotCollision, path: np.ndarray, hand: Hand, step_rad: float = 0.02
+    ) -> Volume:
+        """Volume(robot, tau): the arm and hand at configurations along a joint path (N, 7),
+        sampled so that no joint moves more than ``step_rad`` between samples."""
+        parts = []
+        geometries = robot.geometries
+        for q in interpolate(np.asarray(path, dtype=float), step_rad):
+            poses = robot.geometry.primitive_poses(robot.kinematics.link_frames(q), hand)
+            for geometry, pose in zip(geometries, poses, strict=True):
+                transform = fcl.Transform(pose[:3, :3], pose[:3, 3])
+                parts.append((fcl.CollisionObject(geometry, transform), geometry, ROBOT))
+        return cls(parts)
+
+    def __add__(self, other: Volume) -> Volume:
+        return Volume(self.parts + other.parts)
+
+    def __len__(self) -> int:
+        return len(self.parts)
+
+    @property
+    def labels(self) -> frozenset[str]:
+        return frozenset(label for _, _, label in self.parts)
+
+    @property
+    def manager(self) -> fcl.DynamicAABBTreeCollisionManager:
+        if self._manager is None:
+            self._manager = _manager(obj for obj, _, _ in self.parts)
+        return self._manager
+
+    def _label_manager(self, label: str) -> fcl.DynamicAABBTreeCollisionManager:
+        if label not in self._by_label:
+            self._by_label[label] = _manager(obj for obj, _, owner in self.parts if owner == label)
+        return self._by_label[label]
+
+    def intersects(self, other: Volume) -> bool:
+        """Whether any shape of this volume penetrates any shape of ``other``."""
+        if not self.parts or not other.parts:
+            return False
+        return bool(_collide(self.manager, other.manager, _Query()).hits)
+
+    def penetrated(self, other: Volume) -> set[str]:
+        """FindPenetrated: the labels of ``other`` whose shapes this volume penetrates."""
+        if not self.parts:
+            return set()
+        return {
+            label
+            for label in sorted(other.labels)
+            if _collide(self.manager, other._label_manager(label), _Query()).hits
+        }
+
+
 class CollisionWorld:
-    """The static scene: surface boxes and objects, in separate managers so that surface-only
-    checks (IK) never look at objects."""
+    """The static scene: surface boxes and object volumes, in separate managers so that
+    surface-only checks (IK) never look at objects. An object may occupy several poses (its
+    uncertainty samples): the arm must then avoid all of them."""
 
     def __init__(self, surface: Surface, objects: Mapping[str, tuple[ObjectSpec, Pose]]) -> None:
+        volume = Volume()
+        for name, (spec, pose) in objects.items():
+            volume += Volume.of_object(name, spec, np.asarray(pose), surface.top_z)
+        self._init(surface, volume)
+
+    @classmethod
+    def around(cls, surface: Surface, obstacles: Volume) -> CollisionWorld:
+        """A world whose objects are a `Volume` (e.g. an avoid volume of uncertainty samples)."""
+        world = cls.__new__(cls)
+        world._init(surface, obstacles)
+        return world
+
+    def _init(self, surface: Surface, obstacles: Volume) -> None:
         self.surface = surface
         self._surface_objects = [
             fcl.CollisionObject(
@@ -89,14 +193,10 @@ class CollisionWorld:
             for box in surface.boxes
         ]
         self.surface_manager = _manager(self._surface_objects)
-        self._objects: list[fcl.CollisionObject] = []
+        self.obstacles = obstacles
         #: Object name of every object geometry, by ``id(geometry)``.
-        self.owner: dict[int, str] = {}
-        for name, (spec, pose) in objects.items():
-            for geometry, transform in spec.fcl_parts(pose, surface.top_z):
-                self._objects.append(fcl.CollisionObject(geometry, transform))
-                self.owner[id(geometry)] = name
-        self.object_manager = _manager(self._objects)
+        self.owner: dict[int, str] = obstacles.owner
+        self.object_manager = obstacles.manager
 
     def geometry_ids(self, names: Iterable[str]) -> frozenset[int]:
         """Geometry ids of the named objects (unknown names are an error, not a silent no-op)."""
@@ -115,10 +215,8 @@ class RobotCollision:
     def __init__(self, kinematics: ArmKinematics, geometry: ArmGeometry) -> None:
         self.kinematics = kinematics
         self.geometry = geometry
-        self._objects = [
-            fcl.CollisionObject(_fcl_geometry(p.kind, p.dims), fcl.Transform())
-            for p in geometry.primitives
-        ]
+        self.geometries = [_fcl_geometry(p.kind, p.dims) for p in geometry.primitives]
+        self._objects = [fcl.CollisionObject(g, fcl.Transform()) for g in self.geometries]
         self.manager = _manager(self._objects)
 
         def group(links: tuple[str, ...]) -> fcl.DynamicAABBTreeCollisionManager:

@@ -130,7 +130,8 @@ def plan_goto(
     seed: int = 0,
     resolution: float = 0.01,
 ) -> GoToResult:
-    """Plan a collision-free joint path from start to goal within the joint limits.
+    """Plan a collision-free joint path from start to goal within the joint limits: the
+    straight joint-space segment if it is free, else RRTConnect.
 
     ``is_valid(q)`` is True when configuration q is free. The path is simplified and then every
     straight segment is re-checked so that no joint moves more than ``resolution`` rad between
@@ -165,6 +166,10 @@ def plan_goto(
         return result(None, "start configuration is in collision")
     if not is_free(q1):
         return result(None, "goal configuration is in collision")
+    # Most transits between actions are free in a straight joint line: try it before OMPL.
+    direct = np.stack([q0, q1])
+    if all(is_free(q) for q in interpolate(direct, resolution)[1:-1]):
+        return result(direct, "")
 
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_WARN)

@@ -1,0 +1,852 @@
+"""The action library of the framework (§2.1.6) with the interface of Eq. 1:
+``a(o, G, avoidVol) -> (tau, nu_o)`` or nothing.
+
+Each action is a generator of candidates, best first by its heuristic, so that Rearrange can
+backtrack into the next parametrisation when a later check (the GoTo to the next action, a
+recursive call) fails. Every candidate satisfies the paper's two conditions: nu_o[1] is inside
+G for every uncertainty sample, and Volume(robot, tau) and Volume(o, nu_o) are free of avoidVol.
+
+* Push-grasp (§2.2): a straight push of the hand, horizontal at grasp height, that the capture
+  region guarantees ends with every sample between the fingers. Searched over the direction v
+  (ordered by §2.2.6's heuristic: objects hit by the hand on its way), the aperture and the
+  lateral offset. For the goal object it is PickUp: close and lift (table) or close and pull
+  into the goal strip (shelf). For an obstacle the hand opens flat and backs away: the object
+  stays where the capture region put it, inside the hand's pocket.
+* Sweep (§2.1.6, Fig. 7): the outer side of the hand pushes the object sideways, far enough
+  that every sample of nu_o[1] is in G, guarded by the sweep capture region.
+* GoTo: `planners.goto` in the 7-DoF joint space against avoidVol (see `PlanningContext.goto`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from functools import cache
+from typing import Protocol
+
+import fcl
+import numpy as np
+
+from clutter_gym.objects import Footprint
+from clutter_gym.robot import herb_model as hm
+from clutter_gym.robot.geometry import Hand
+from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.world import Surface
+from planners.capture import (
+    CaptureRegion,
+    SweepRegion,
+    extreme_parameters,
+    push_grasp_apertures,
+    push_grasp_region,
+    sweep_region,
+)
+from planners.collision import (
+    CollisionChecker,
+    CollisionWorld,
+    RobotCollision,
+    Volume,
+    interpolate,
+)
+from planners.direct_grasp import LIFT, approach_rotation, grasp_height
+from planners.frames import Frame2D
+from planners.goto import plan_goto
+from planners.hand2d import closure_for_aperture, push_grasp_profile, sweep_profile
+from planners.uncertainty import ObjectBelief
+
+GRASP_CLOSURE = 1.0
+OPEN_FLAT = 0.0  # closure 0: fingers flat in the palm plane, nothing in front to drag the object
+PUSH_MARGIN = 0.01  # m pushed beyond the capture region's requirement
+START_CLEARANCE = 0.01  # m between the hand's front and the nearest sample's bounding circle
+WAYPOINT_SPACING = 0.025  # m between waypoints of straight hand motions
+RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
+RISE = 0.10  # m the hand rises after releasing an obstacle
+SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
+ARM_CHECK_STEP = 0.02  # rad between collision-checked configurations along a motion
+NU_SPACING = 0.02  # m of push between stored stages of nu_o
+NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
+SWEEP_CHUNK = 0.06  # m of sweep simulated before checking whether the object has reached G
+STABLE_MARGIN = 0.01  # m: in the shelf, the footprint stays this far inside the walls
+TABLE_EDGE_MARGIN = 0.05  # m: on the table, the centre of mass stays this far from the edge
+
+
+# --------------------------------------------------------------------------------------------
+# Trajectories
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Segment:
+    """Part of a robot trajectory with one hand command: joint rows (N, 7) and (spread,
+    closure); the env moves through the rows in order and changes the hand at the first."""
+
+    label: str
+    path: np.ndarray
+    hand: Hand
+
+    def rows(self) -> np.ndarray:
+        """(N, 9) rows in the env's trajectory action format."""
+        hand = np.tile(np.asarray(self.hand, dtype=float), (len(self.path), 1))
+        return np.hstack([self.path, hand])
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A robot trajectory tau as segments."""
+
+    segments: tuple[Segment, ...]
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.segments[0].path[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.segments[-1].path[-1]
+
+    @property
+    def end_hand(self) -> Hand:
+        return self.segments[-1].hand
+
+    def rows(self) -> np.ndarray:
+        return np.vstack([s.rows() for s in self.segments])
+
+    def volume(self, robot: RobotCollision) -> Volume:
+        """Volume(robot, tau)."""
+        total = Volume()
+        for s in self.segments:
+            total += Volume.of_robot(robot, s.path, s.hand, ARM_CHECK_STEP)
+        return total
+
+    def __add__(self, other: Motion) -> Motion:
+        return Motion(self.segments + other.segments)
+
+
+@dataclass(frozen=True)
+class ActionResult:
+    """(tau, nu_o) of Eq. 1 with what produced it."""
+
+    action: str  # "push-grasp", "pickup" or "sweep"
+    obj: str
+    motion: Motion
+    nu: np.ndarray  # (stages, M, 3) world poses of the samples; nu[0] = U(o), nu[-1] the end
+    held: bool  # the object ends in the closed hand
+    details: dict[str, float]
+
+
+# --------------------------------------------------------------------------------------------
+# Goals
+# --------------------------------------------------------------------------------------------
+class Goal(Protocol):
+    """G: which final states of the object are acceptable."""
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool: ...
+
+    def describe(self) -> str: ...
+
+
+@dataclass(frozen=True)
+class Retrieve:
+    """The goal object's G: grasped with every sample in the hand (then lifted or pulled out)."""
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        return held
+
+    def describe(self) -> str:
+        return "in the hand"
+
+
+@dataclass(frozen=True)
+class AwayFrom:
+    """StablePoses(o) - NGR: standing on the surface, clear of the negative goal region."""
+
+    ngr: Volume
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        if held or not ctx.stable(name, final):
+            return False
+        spec = ctx.beliefs[name].spec
+        return not Volume.of_object(name, spec, final, ctx.surface.top_z).intersects(self.ngr)
+
+    def describe(self) -> str:
+        return "out of the negative goal region"
+
+
+# --------------------------------------------------------------------------------------------
+# Context
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Search resolution and budgets (the paper's "user defined step sizes", §2.2.6)."""
+
+    time_budget: float = 20.0  # s for the whole plan
+    goto_budget: float = 1.0  # s per GoTo request
+    heading_step_deg: float = 15.0
+    max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
+    offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
+    sweep_max: float = 0.40  # m
+    sweep_step_deg: float = 30.0
+    candidates_per_action: int = 3
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("goto_budget", "heading_step_deg", "sweep_max", "sweep_step_deg"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
+        if not (math.isfinite(self.time_budget) and self.time_budget >= 0):
+            raise ValueError(f"PlannerSettings.time_budget: {self.time_budget!r}; must be >= 0")
+        if self.candidates_per_action < 1:
+            raise ValueError(
+                f"PlannerSettings.candidates_per_action: {self.candidates_per_action}; must be >= 1"
+            )
+
+
+@dataclass
+class PlanStats:
+    """What planning cost: steps (recursive calls), candidates tried, checks, time by part."""
+
+    planning_steps: int = 0
+    actions_tried: int = 0
+    collision_checks: int = 0
+    seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "planning_steps": self.planning_steps,
+            "actions_tried": self.actions_tried,
+            "collision_checks": self.collision_checks,
+            "seconds": {k: round(v, 4) for k, v in sorted(self.seconds.items())},
+        }
+
+
+class BudgetExceeded(Exception):
+    """The plan's time budget ran out."""
+
+
+@cache
+def _push_region(footprint: Footprint, aperture: float) -> CaptureRegion:
+    return push_grasp_region(footprint, aperture)
+
+
+@cache
+def _sweep_region(footprint: Footprint) -> SweepRegion:
+    return sweep_region(footprint)
+
+
+class PlanningContext:
+    """Everything one planning request shares: the beliefs, the robot, budgets and statistics."""
+
+    def __init__(
+        self,
+        surface: Surface,
+        beliefs: dict[str, ObjectBelief],
+        settings: PlannerSettings,
+        kinematics: ArmKinematics,
+        robot: RobotCollision,
+        goal_region: tuple[tuple[float, float], tuple[float, float]],
+    ) -> None:
+        self.surface = surface
+        self.goal_region = goal_region
+        self.beliefs = beliefs
+        self.settings = settings
+        self.kinematics = kinematics
+        self.robot = robot
+        self.rng = np.random.default_rng(settings.seed)
+        self.stats = PlanStats()
+        self.deadline = time.perf_counter() + settings.time_budget
+        #: Why candidates failed, per (object, action): the planner's account of what blocked it.
+        self.failures: dict[tuple[str, str], Counter[str]] = defaultdict(Counter)
+        self._volumes: dict[str, Volume] = {}
+
+    # -- budget and bookkeeping -------------------------------------------------------------
+    def remaining(self) -> float:
+        return self.deadline - time.perf_counter()
+
+    def check_budget(self) -> None:
+        if self.remaining() <= 0:
+            raise BudgetExceeded
+
+    def fail(self, name: str, action: str, reason: str) -> None:
+        self.failures[(name, action)][reason] += 1
+
+    def timed(self, part: str) -> _Timer:
+        return _Timer(self.stats, part)
+
+    # -- geometry -----------------------------------------------------------------------------
+    def uncertainty_volume(self, name: str) -> Volume:
+        """Volume(i, U(i)), cached."""
+        if name not in self._volumes:
+            b = self.beliefs[name]
+            self._volumes[name] = Volume.of_object(name, b.spec, b.samples, self.surface.top_z)
+        return self._volumes[name]
+
+    def objects_volume(self, names: object) -> Volume:
+        total = Volume()
+        for name in sorted(names):  # type: ignore[call-overload]
+            total += self.uncertainty_volume(name)
+        return total
+
+    def free_check(self, obstacles: Volume, hand: Hand) -> Callable[[np.ndarray], bool]:
+        """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
+        ``obstacles``."""
+        checker = CollisionChecker(CollisionWorld.around(self.surface, obstacles), self.robot)
+        free = checker.checker(hand)
+
+        def counted(q: np.ndarray) -> bool:
+            self.stats.collision_checks += 1
+            return free(q)
+
+        return counted
+
+    def motion_free(self, segments: tuple[Segment, ...], obstacles: Volume) -> bool:
+        for s in segments:
+            free = self.free_check(obstacles, s.hand)
+            if not all(free(q) for q in interpolate(s.path, ARM_CHECK_STEP)):
+                return False
+        return True
+
+    def stable(self, name: str, poses: np.ndarray) -> bool:
+        """StablePoses: upright on the surface. On the open table the centre of mass must be
+        over the top (an overhanging box stands); in the shelf the outline must be inside the
+        walls."""
+        footprint = self.beliefs[name].spec.footprint
+        x0, x1, y0, y1 = self.surface.bounds
+        p = np.asarray(poses).reshape(-1, 3)
+        if self.surface.name == "table":
+            m = TABLE_EDGE_MARGIN
+            return bool(
+                np.all((p[:, 0] > x0 + m) & (p[:, 0] < x1 - m))
+                and np.all((p[:, 1] > y0 + m) & (p[:, 1] < y1 - m))
+            )
+        m = STABLE_MARGIN
+        for pose in p:
+            lo_x, hi_x, lo_y, hi_y = footprint.aabb(tuple(pose))  # type: ignore[arg-type]
+            if lo_x < x0 + m or hi_x > x1 - m or lo_y < y0 + m or hi_y > y1 - m:
+                return False
+        return True
+
+    # -- motions ------------------------------------------------------------------------------
+    def tcp_pose(self, hand_base_xy: np.ndarray, heading: float, z: float) -> np.ndarray:
+        """TCP pose of a horizontal hand whose hand_base is at (x, y, z), approach at heading."""
+        direction = np.array([math.cos(heading), math.sin(heading), 0.0])
+        pose = np.eye(4)
+        pose[:3, :3] = approach_rotation(direction)
+        pose[:3, 3] = np.r_[hand_base_xy, z] + hm.HAND_TCP_OFFSET * direction
+        return pose
+
+    def straight(
+        self,
+        q_start: np.ndarray,
+        target: np.ndarray,
+        accept: Callable[[np.ndarray], bool],
+    ) -> np.ndarray | None:
+        """Straight TCP line from q_start to target (4x4), waypoints every WAYPOINT_SPACING."""
+        distance = float(np.linalg.norm(target[:3, 3] - self.kinematics.fk_tcp(q_start)[:3, 3]))
+        n = max(2, math.ceil(distance / WAYPOINT_SPACING) + 1)
+        with self.timed("ik"):
+            return self.kinematics.cartesian_path(q_start, target, n, accept=accept)
+
+    def solve(self, target: np.ndarray, accept: Callable[[np.ndarray], bool]) -> np.ndarray | None:
+        with self.timed("ik"):
+            return self.kinematics.solve_ik(
+                target, hm.RIGHT_ARM_HOME, self.rng, accept=accept, max_restarts=8
+            )
+
+    def goto(
+        self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: Hand
+    ) -> tuple[np.ndarray | None, str]:
+        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself)."""
+        self.check_budget()
+        budget = min(self.settings.goto_budget, self.remaining())
+        free = self.free_check(obstacles, hand)
+        with self.timed("goto"):
+            result = plan_goto(
+                start,
+                goal,
+                free,
+                self.kinematics.lower,
+                self.kinematics.upper,
+                time_budget=max(budget, 1e-3),
+                seed=self.settings.seed,
+                resolution=ARM_CHECK_STEP,
+            )
+        return result.path, result.reason
+
+    # -- capture regions ----------------------------------------------------------------------
+    def push_region(self, footprint: Footprint, aperture: float) -> CaptureRegion:
+        with self.timed("capture"):
+            return _push_region(footprint, aperture)
+
+    def sweep_region(self, footprint: Footprint) -> SweepRegion:
+        with self.timed("capture"):
+            return _sweep_region(footprint)
+
+
+class _Timer:
+    def __init__(self, stats: PlanStats, part: str) -> None:
+        self.stats, self.part = stats, part
+
+    def __enter__(self) -> None:
+        self.began = time.perf_counter()
+
+    def __exit__(self, *_: object) -> None:
+        self.stats.seconds[self.part] += time.perf_counter() - self.began
+
+
+# --------------------------------------------------------------------------------------------
+# Heuristic (§2.2.6)
+# --------------------------------------------------------------------------------------------
+def _corridor_hits(
+    ctx: PlanningContext, name: str, start: np.ndarray, end: np.ndarray, width: float
+) -> int:
+    """Objects other than ``name`` whose U overlaps a box swept from start to end (2D) at the
+    hand's height: the paper's count of objects hit when the hand turns around the object."""
+    delta = end - start
+    length = float(np.linalg.norm(delta))
+    if length < 1e-9:
+        return 0
+    yaw = math.atan2(delta[1], delta[0])
+    c, s = math.cos(yaw), math.sin(yaw)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
+    geometry = fcl.Box(length, width, 0.12)
+    corridor = Volume(
+        [(fcl.CollisionObject(geometry, fcl.Transform(rotation, centre)), geometry, "corridor")]
+    )
+    hits = 0
+    for other in ctx.beliefs:
+        if other != name and corridor.intersects(ctx.uncertainty_volume(other)):
+            hits += 1
+    return hits
+
+
+def _base_heading(ctx: PlanningContext, xy: np.ndarray) -> float:
+    """Yaw of the line from the right shoulder to a point: the arm's most comfortable push."""
+    d = xy - ctx.kinematics.shoulder[:2]
+    return math.atan2(d[1], d[0])
+
+
+def _headings(ctx: PlanningContext, base: float, step_deg: float) -> list[float]:
+    step = math.radians(step_deg)
+    limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+    count = int(limit // step)
+    return [base + k * step for k in range(-count, count + 1)]
+
+
+def _push_headings(ctx: PlanningContext, name: str, reach: float) -> list[float]:
+    """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in, then
+    closest to the shoulder-object line."""
+    centre = ctx.beliefs[name].samples[0, :2]
+    base = _base_heading(ctx, centre)
+    radius = ctx.beliefs[name].spec.footprint.bounding_radius
+    scored = []
+    for h in _headings(ctx, base, ctx.settings.heading_step_deg):
+        v = np.array([math.cos(h), math.sin(h)])
+        hits = _corridor_hits(ctx, name, centre - (radius + 0.30) * v, centre, 2 * reach)
+        scored.append((hits, abs(h - base), h))
+    return [h for _, _, h in sorted(scored)]
+
+
+def _sweep_directions(ctx: PlanningContext, name: str) -> list[tuple[float, int]]:
+    """(sweep direction, handedness) pairs whose hand approach is within reach, ordered by the
+    objects the swept object would run into, then by how natural the approach is."""
+    belief = ctx.beliefs[name]
+    centre = belief.samples[0, :2]
+    base = _base_heading(ctx, centre)
+    radius = belief.spec.footprint.bounding_radius
+    limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+    scored = []
+    step = math.radians(ctx.settings.sweep_step_deg)
+    for k in range(round(2 * math.pi / step)):
+        angle = k * step
+        for handedness in (1, -1):
+            approach = angle + handedness * math.pi / 2
+            off = abs(math.remainder(approach - base, 2 * math.pi))
+            if off > limit:
+                continue
+            v = np.array([math.cos(angle), math.sin(angle)])
+            hits = _corridor_hits(ctx, name, centre + radius * v, centre + 0.30 * v, 2 * radius)
+            scored.append((hits, off, angle, handedness))
+    return [(a, h) for _, _, a, h in sorted(scored)]
+
+
+# --------------------------------------------------------------------------------------------
+# Push-grasp and PickUp
+# --------------------------------------------------------------------------------------------
+def push_grasp(
+    ctx: PlanningContext, name: str, goal: Goal, avoid: Volume
+) -> Iterator[ActionResult]:
+    """Push-grasps of ``name`` (PickUp when G is `Retrieve`), best heading first."""
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    action = "pickup" if isinstance(goal, Retrieve) else "push-grasp"
+    if not spec.graspable:
+        ctx.fail(name, action, "wider than the hand can hold")
+        return
+    if action == "pickup" and not spec.liftable:
+        ctx.fail(name, action, "too heavy to lift")
+        return
+    apertures = push_grasp_apertures(spec.footprint)
+    reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
+    found = 0
+    for heading in _push_headings(ctx, name, reach):
+        for aperture in apertures:
+            result = None
+            for offset in ctx.settings.offsets:
+                ctx.check_budget()
+                ctx.stats.actions_tried += 1
+                result = _push_grasp_at(ctx, name, goal, avoid, action, heading, aperture, offset)
+                if not isinstance(result, _Uncaptured):
+                    break  # offsets shift the hand by a centimetre: they only help the capture
+            if not isinstance(result, ActionResult):
+                continue
+            yield result
+            found += 1
+            if found >= ctx.settings.candidates_per_action:
+                return
+            break  # the next candidate pushes from another direction
+
+
+class _Uncaptured:
+    """A push-grasp whose capture region misses samples: another lateral offset may help."""
+
+
+def _push_grasp_at(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+    offset: float,
+) -> ActionResult | _Uncaptured | None:
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    region = ctx.push_region(spec.footprint, aperture)
+    profile = push_grasp_profile(aperture)
+    z = ctx.surface.top_z + grasp_height(spec.height)
+    v = np.array([math.cos(heading), math.sin(heading)])
+    normal = np.array([-v[1], v[0]])
+    centre = belief.samples[0, :2] + offset * normal
+    local = Frame2D((float(centre[0]), float(centre[1])), heading).to_frame(belief.samples)
+    x_front = profile.pusher.bounds[1]
+    back_off = _near_edge(spec.footprint, local) - x_front - START_CLEARANCE
+    start_xy = centre + back_off * v
+    frame = Frame2D((float(start_xy[0]), float(start_xy[1])), heading)
+    in_hand = frame.to_frame(belief.samples)
+    with ctx.timed("capture"):
+        inside, need = region.query(in_hand)
+    if not inside.all():
+        ctx.fail(name, action, "the capture region misses some uncertainty samples")
+        return _Uncaptured()
+    distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
+    end_xy = start_xy + distance * v
+    hand: Hand = (0.0, profile.closure)
+    free = ctx.free_check(avoid, hand)
+    q_end = ctx.solve(ctx.tcp_pose(end_xy, heading, z), free)
+    if q_end is None:
+        ctx.fail(name, action, "no collision-free IK solution at the end of the push")
+        return None
+    back = ctx.straight(q_end, ctx.tcp_pose(start_xy, heading, z), free)
+    if back is None:
+        ctx.fail(name, action, "the straight push is out of reach or hits avoidVol")
+        return None
+    push = Segment("push", back[::-1].copy(), hand)
+    if not ctx.motion_free((push,), avoid):
+        ctx.fail(name, action, "the arm hits avoidVol during the push")
+        return None
+    stages = max(1, math.ceil(distance / NU_SPACING))
+    with ctx.timed("nu"):
+        advances = np.linspace(0.0, distance, stages + 1)
+        chosen = extreme_parameters(region.mus, region.cs)
+        nu = _to_world(frame, region.evolve(in_hand, distance, stages, NU_STEP, chosen), advances)
+    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
+        ctx.fail(name, action, "the object's uncertainty sweeps into avoidVol")
+        return None
+    held = action == "pickup"
+    if not goal.accepts(ctx, name, nu[-1], held):
+        ctx.fail(name, action, f"the object does not end {goal.describe()}")
+        return None
+    details = {
+        "heading_deg": math.degrees(heading),
+        "aperture_m": aperture,
+        "offset_m": offset,
+        "push_m": distance,
+    }
+    if held:
+        finish, carried = _retrieve(ctx, q_end, end_xy, heading, z, nu[-1], avoid)
+        if finish is None:
+            ctx.fail(name, action, "no collision-free lift or pull out after the grasp")
+            return None
+        nu = np.concatenate([nu, carried])
+    else:
+        finish = _release(ctx, name, q_end, end_xy, heading, z, nu[-1], avoid)
+        if finish is None:
+            ctx.fail(name, action, "no collision-free retreat after the push")
+            return None
+    return ActionResult(action, name, Motion((push, *finish)), nu, held, details)
+
+
+def _retrieve(
+    ctx: PlanningContext,
+    q_end: np.ndarray,
+    end_xy: np.ndarray,
+    heading: float,
+    z: float,
+    in_hand: np.ndarray,
+    avoid: Volume,
+) -> tuple[tuple[Segment, ...] | None, np.ndarray]:
+    """Close the fingers, then lift (table) or lift slightly and pull the object into the
+    goal strip (shelf). Returns the segments and the carried object's poses."""
+    closed: Hand = (0.0, GRASP_CLOSURE)
+    close = Segment("close", q_end[None].copy(), closed)
+    free = ctx.free_check(avoid, closed)
+    if ctx.surface.success == "lift":
+        lift = ctx.straight(q_end, ctx.tcp_pose(end_xy, heading, z + LIFT), free)
+        if lift is None:
+            return None, np.empty((0, len(in_hand), 3))
+        return (close, Segment("lift", lift, closed)), np.empty((0, len(in_hand), 3))
+    raise_ = ctx.straight(q_end, ctx.tcp_pose(end_xy, heading, z + SHELF_LIFT), free)
+    if raise_ is None:
+        return None, np.empty((0, len(in_hand), 3))
+    (x0, x1), _ = ctx.goal_region
+    shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), 0.0])
+    pull = ctx.straight(raise_[-1], ctx.tcp_pose(end_xy + shift, heading, z + SHELF_LIFT), free)
+    if pull is None:
+        return None, np.empty((0, len(in_hand), 3))
+    steps = max(1, math.ceil(float(np.linalg.norm(shift)) / NU_SPACING))
+    carried = np.stack(
+        [in_hand + np.r_[shift * k / steps, 0.0] for k in range(1, steps + 1)]
+    )
+    return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
+
+
+def _release(
+    ctx: PlanningContext,
+    name: str,
+    q_end: np.ndarray,
+    end_xy: np.ndarray,
+    heading: float,
+    z: float,
+    final: np.ndarray,
+    avoid: Volume,
+) -> tuple[Segment, ...] | None:
+    """Open the hand flat and back away, leaving a pushed obstacle where it is."""
+    opened: Hand = (0.0, OPEN_FLAT)
+    release = Segment("release", q_end[None].copy(), opened)
+    v = np.array([math.cos(heading), math.sin(heading)])
+    back_xy = end_xy - RETREAT * v
+    retreat = ctx.straight(q_end, ctx.tcp_pose(back_xy, heading, z), ctx.free_check(avoid, opened))
+    if retreat is None:
+        return None
+    placed = avoid + Volume.of_object(name, ctx.beliefs[name].spec, final, ctx.surface.top_z)
+    rise = ctx.straight(
+        retreat[-1], ctx.tcp_pose(back_xy, heading, z + RISE), ctx.free_check(placed, opened)
+    )
+    if rise is None:
+        return None
+    return (release, Segment("retreat", retreat, opened), Segment("rise", rise, opened))
+
+
+# --------------------------------------------------------------------------------------------
+# Sweep
+# --------------------------------------------------------------------------------------------
+def sweep(ctx: PlanningContext, name: str, goal: Goal, avoid: Volume) -> Iterator[ActionResult]:
+    """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first."""
+    if isinstance(goal, Retrieve):
+        return
+    found = 0
+    for angle, handedness in _sweep_directions(ctx, name):
+        for y_fraction in (0.5, 0.25, 0.75):
+            ctx.check_budget()
+            ctx.stats.actions_tried += 1
+            result = _sweep_at(ctx, name, goal, avoid, angle, handedness, y_fraction)
+            if result is not None:
+                yield result
+                found += 1
+                if found >= ctx.settings.candidates_per_action:
+                    return
+                break
+
+
+def _sweep_at(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    angle: float,
+    handedness: int,
+    y_fraction: float,
+) -> ActionResult | None:
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    region = ctx.sweep_region(spec.footprint)
+    profile = sweep_profile(region.aperture)
+    approach = angle + handedness * math.pi / 2
+    z = ctx.surface.top_z + grasp_height(spec.height)
+    centre = belief.samples[0, :2]
+    local = Frame2D((float(centre[0]), float(centre[1])), angle, handedness).to_frame(
+        belief.samples
+    )
+    lo, hi = profile.span
+    x_front = profile.pusher.bounds[1]
+    x0 = _near_edge(spec.footprint, local) - x_front - START_CLEARANCE
+    y0 = local[:, 1].mean() - (lo + y_fraction * (hi - lo))
+    origin = Frame2D((float(centre[0]), float(centre[1])), angle, handedness).to_world(
+        np.array([x0, y0, 0.0])
+    )
+    start_xy = origin[:2]
+    frame = Frame2D((float(start_xy[0]), float(start_xy[1])), angle, handedness)
+    in_frame = frame.to_frame(belief.samples)
+    hand: Hand = (0.0, closure_for_aperture(region.aperture))
+    free = ctx.free_check(avoid, hand)
+    if ctx.solve(ctx.tcp_pose(start_xy, approach, z), free) is None:
+        ctx.fail(name, "sweep", "no collision-free IK solution at the start of the sweep")
+        return None
+    # A rigid translation along the sweep is a cheap first guess of how far to sweep; the
+    # simulated evolution below decides.
+    gap = float(_near_edge(spec.footprint, in_frame) - x_front)
+    guess = next(
+        (
+            gap + d
+            for d in np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
+            if goal.accepts(ctx, name, _translated(belief.samples, d * frame.x_axis), False)
+        ),
+        None,
+    )
+    if guess is None:
+        ctx.fail(name, "sweep", f"no sweep up to {ctx.settings.sweep_max} m ends {goal.describe()}")
+        return None
+    with ctx.timed("capture"):
+        inside, _ = region.query(in_frame, float(guess))
+    if not inside.all():
+        ctx.fail(name, "sweep", "the sweep capture region misses some uncertainty samples")
+        return None
+    with ctx.timed("nu"):
+        limit = min(ctx.settings.sweep_max, guess + 2 * SWEEP_CHUNK)
+        swept = _sweep_until(ctx, name, goal, region, frame, in_frame, limit)
+    if swept is None:
+        ctx.fail(name, "sweep", f"no sweep up to {ctx.settings.sweep_max} m ends {goal.describe()}")
+        return None
+    distance, nu = swept
+    end_xy = start_xy + distance * frame.x_axis
+    q_end = ctx.solve(ctx.tcp_pose(end_xy, approach, z), free)
+    if q_end is None:
+        ctx.fail(name, "sweep", "no collision-free IK solution at the end of the sweep")
+        return None
+    back = ctx.straight(q_end, ctx.tcp_pose(start_xy, approach, z), free)
+    if back is None:
+        ctx.fail(name, "sweep", "the straight sweep is out of reach or hits avoidVol")
+        return None
+    motion = Segment("sweep", back[::-1].copy(), hand)
+    if not ctx.motion_free((motion,), avoid):
+        ctx.fail(name, "sweep", "the arm hits avoidVol during the sweep")
+        return None
+    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
+        ctx.fail(name, "sweep", "the object's uncertainty sweeps into avoidVol")
+        return None
+    placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
+    back_xy = end_xy - 0.02 * frame.x_axis
+    retreat = ctx.straight(q_end, ctx.tcp_pose(back_xy, approach, z), free)
+    rise = (
+        None
+        if retreat is None
+        else ctx.straight(
+            retreat[-1], ctx.tcp_pose(back_xy, approach, z + RISE), ctx.free_check(placed, hand)
+        )
+    )
+    if retreat is None or rise is None:
+        ctx.fail(name, "sweep", "no collision-free retreat after the sweep")
+        return None
+    details = {
+        "direction_deg": math.degrees(angle),
+        "side": float(handedness),
+        "sweep_m": distance,
+    }
+    segments = (motion, Segment("retreat", retreat, hand), Segment("rise", rise, hand))
+    return ActionResult("sweep", name, Motion(segments), nu, False, details)
+
+
+def _to_world(frame: Frame2D, nu_hand: np.ndarray, advances: np.ndarray) -> np.ndarray:
+    """Moving-hand-frame poses (S, P, N, 3) at hand advances (S,) as world poses (S, P*N, 3)."""
+    shifted = nu_hand.copy()
+    shifted[..., 0] += advances[:, None, None]
+    return frame.to_world(shifted).reshape(len(advances), -1, 3)
+
+
+def _near_edge(footprint: Footprint, poses: np.ndarray) -> float:
+    """Smallest x reached by the object's outline over poses (N, 3) in a frame: where a hand
+    moving along +x would first meet it."""
+    if footprint.shape == "circle":
+        return float((poses[:, 0] - footprint.radius).min())
+    hx, hy = footprint.half_extents
+    reach = np.abs(hx * np.cos(poses[:, 2])) + np.abs(hy * np.sin(poses[:, 2]))
+    return float((poses[:, 0] - reach).min())
+
+
+def _translated(poses: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    moved = np.array(poses, dtype=float)
+    moved[:, :2] += shift
+    return moved
+
+
+def _reached(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    region: SweepRegion,
+    in_frame: np.ndarray,
+    distance: float,
+    final: np.ndarray,
+) -> bool:
+    """A sweep of ``distance`` keeps every sample and leaves all of nu_o[1] in G."""
+    inside = region.query(in_frame, distance)[0].all()
+    return bool(inside) and goal.accepts(ctx, name, final, False)
+
+
+def _sweep_until(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    region: SweepRegion,
+    frame: Frame2D,
+    in_frame: np.ndarray,
+    limit: float,
+) -> tuple[float, np.ndarray] | None:
+    """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
+
+    The evolution is simulated a chunk at a time and stops as soon as G is reached: sweeping a
+    box under every (mu_c, c) is the planner's most expensive computation."""
+    chosen = extreme_parameters(region.mus, region.cs)
+    current: np.ndarray = in_frame
+    stages = [_to_world(frame, np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
+    advanced = 0.0
+    while advanced < limit - 1e-9:
+        ctx.check_budget()
+        d = min(SWEEP_CHUNK, limit - advanced)
+        k = max(1, math.ceil(d / NU_SPACING))
+        nu_hand = region.evolve(current, d, k, NU_STEP, chosen)
+        distances = advanced + np.linspace(0.0, d, k + 1)
+        world = _to_world(frame, nu_hand, distances)
+
+        if _reached(ctx, name, goal, region, in_frame, float(distances[k]), world[k]):
+            j = next(
+                j
+                for j in range(1, k + 1)
+                if j == k
+                or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
+            )
+            return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
+        stages.append(world[1:])
+        current = nu_hand[-1]
+        advanced += d
+    return None
+
+
+ACTIONS: dict[str, Callable[[PlanningContext, str, Goal, Volume], Iterator[ActionResult]]] = {
+    "push-grasp": push_grasp,
+    "sweep": sweep,
+}
+"""The manipulation actions Rearrange searches, in the order it tries them."""
