@@ -1,6 +1,8 @@
 """The `clutter-gym` command line.
 
 clutter-gym demo [--scene scene.json] [--out-dir out/demo]
+clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100] [--json out.json]
+    [--gif out.gif] [--figure timeline.png]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
 clutter-gym bench env --json out.json
@@ -36,6 +38,35 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"{Path(args.out_dir) / 'demo.json'}"
     )
     return 0 if summary["success"] else 1
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from agents.execute import run_plan
+
+    trials = args.trials if args.execute else 0
+    report = run_plan(
+        args.scene,
+        planner=args.planner,
+        trials=trials,
+        out=Path(args.json) if args.json else None,
+        gif=Path(args.gif) if args.gif else None,
+        figure=Path(args.figure) if args.figure else None,
+        seed=args.seed,
+        time_budget=args.budget,
+        samples=args.samples,
+        workers=args.workers,
+        noise=args.noise,
+    )
+    keys = (
+        "planner", "noise", "samples", "success", "reason", "planning_time_s", "actions",
+        "objects_moved", "trials", "execution_successes", "execution_success_rate",
+        "execution_failures", "mean_execution_simulated_s",
+    )  # fmt: skip
+    print(json.dumps({k: report[k] for k in keys if k in report}))
+    if not report["success"]:
+        for line in report["blocked_by"][:8]:
+            print(f"  blocked by: {line}", file=sys.stderr)
+    return 0 if report["success"] else 1
 
 
 def _cmd_scene(args: argparse.Namespace) -> int:
@@ -122,6 +153,27 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out-dir", default="out/demo")
     demo.add_argument("--seed", type=int, default=0)
     demo.set_defaults(func=_cmd_demo)
+
+    plan = sub.add_parser(
+        "plan", help="plan a retrieval with Rearrange; optionally execute it on noisy worlds"
+    )
+    plan.add_argument("--scene", required=True, help="scene JSON (true poses and noise)")
+    plan.add_argument("--planner", default="pushing", help="planner name (default: pushing)")
+    plan.add_argument(
+        "--noise", default=None, help="override the scene's noise: a level or 'xy,theta'"
+    )
+    plan.add_argument("--execute", action="store_true", help="execute the plan on true worlds")
+    plan.add_argument("--trials", type=int, default=100, help="true worlds with --execute")
+    plan.add_argument("--json", default=None, help="write the report here")
+    plan.add_argument("--gif", default=None, help="record one execution as a GIF")
+    plan.add_argument("--figure", default=None, help="write the planning timeline PNG")
+    plan.add_argument("--seed", type=int, default=0, help="detection, samples, worlds, OMPL")
+    plan.add_argument("--budget", type=float, default=20.0, help="planning time budget [s]")
+    plan.add_argument(
+        "--samples", type=int, default=None, help="uncertainty samples (default: the paper's n)"
+    )
+    plan.add_argument("--workers", type=int, default=2)
+    plan.set_defaults(func=_cmd_plan)
 
     scene = sub.add_parser("scene", help="generate a scene at one of the paper's clutter levels")
     scene.add_argument("--level", choices=LEVELS, required=True)

@@ -67,9 +67,10 @@ NOISE_LEVELS: dict[str, tuple[float, float]] = {
     "sigma3": (0.02, 0.175),
     "sigma4": (0.06, 0.785),
     "detector": (0.007, 0.07),
+    "fig2": (0.02, 0.05),
 }
-"""Perception noise ``(sigma_xy [m], sigma_theta [rad])``: the paper's σ1–σ4 and a typical
-object detector."""
+"""Perception noise ``(sigma_xy [m], sigma_theta [rad])``: the paper's σ1–σ4, its real
+detector (§3.1) and the high-uncertainty example of its Fig. 2."""
 DEFAULT_NOISE = "sigma2"
 _NOISE_EXPECTED = (
     ", ".join(repr(n) for n in NOISE_LEVELS) + ' or {"xy": sigma_xy, "theta": sigma_theta}'

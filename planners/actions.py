@@ -63,10 +63,13 @@ START_CLEARANCE = 0.01  # m between the hand's front and the nearest sample's bo
 WAYPOINT_SPACING = 0.025  # m between waypoints of straight hand motions
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 RISE = 0.10  # m the hand rises after releasing an obstacle
+HAND_BELOW_TCP = hm.HAND_PALM_RADIUS  # m: a horizontal hand's lowest point under its TCP
+RISE_CLEARANCE = 0.03  # m between the risen hand and the top of the object it released
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 ARM_CHECK_STEP = 0.02  # rad between collision-checked configurations along a motion
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
+PILOT_STEP = 0.01  # m: simulation step of the one-sample pilot of a sweep
 SWEEP_CHUNK = 0.06  # m of sweep simulated before checking whether the object has reached G
 STABLE_MARGIN = 0.01  # m: in the shelf, the footprint stays this far inside the walls
 TABLE_EDGE_MARGIN = 0.05  # m: on the table, the centre of mass stays this far from the edge
@@ -165,8 +168,26 @@ class AwayFrom:
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
         if held or not ctx.stable(name, final):
             return False
+        near = self._near(ctx, name, final)
+        if not near.any():
+            return True
         spec = ctx.beliefs[name].spec
-        return not Volume.of_object(name, spec, final, ctx.surface.top_z).intersects(self.ngr)
+        return not Volume.of_object(name, spec, final[near], ctx.surface.top_z).intersects(
+            self.ngr
+        )
+
+    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
+        """A quick sufficient test: stable, and every pose's bounding square clears the NGR
+        in the top-view map (no exact geometry)."""
+        return ctx.stable(name, final) and not self._near(ctx, name, final).any()
+
+    def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
+        spec = ctx.beliefs[name].spec
+        r = spec.footprint.bounding_radius
+        boxes = np.column_stack(
+            [final[:, 0] - r, final[:, 0] + r, final[:, 1] - r, final[:, 1] + r]
+        )
+        return self.ngr.lowest_over(boxes) <= ctx.surface.top_z + spec.height
 
     def describe(self) -> str:
         return "out of the negative goal region"
@@ -184,7 +205,7 @@ class PlannerSettings:
     heading_step_deg: float = 15.0
     max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
     offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
-    sweep_max: float = 0.40  # m
+    sweep_max: float = 0.55  # m
     sweep_step_deg: float = 30.0
     candidates_per_action: int = 3
     seed: int = 0
@@ -287,10 +308,14 @@ class PlanningContext:
             total += self.uncertainty_volume(name)
         return total
 
-    def free_check(self, obstacles: Volume, hand: Hand) -> Callable[[np.ndarray], bool]:
+    def free_check(
+        self, obstacles: Volume, hand: Hand, exact: bool = False
+    ) -> Callable[[np.ndarray], bool]:
         """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
-        ``obstacles``."""
-        checker = CollisionChecker(CollisionWorld.around(self.surface, obstacles), self.robot)
+        ``obstacles`` (each object's uncertainty samples as one convex hull, or with ``exact``
+        every sample: for the hand moving away from an object it has just placed)."""
+        world = CollisionWorld.around(self.surface, obstacles if exact else obstacles.hulled())
+        checker = CollisionChecker(world, self.robot)
         free = checker.checker(hand)
 
         def counted(q: np.ndarray) -> bool:
@@ -484,6 +509,9 @@ def push_grasp(
     if not spec.graspable:
         ctx.fail(name, action, "wider than the hand can hold")
         return
+    if not spec.pushable:
+        ctx.fail(name, action, "tips over when pushed")
+        return
     if action == "pickup" and not spec.liftable:
         ctx.fail(name, action, "too heavy to lift")
         return
@@ -641,9 +669,12 @@ def _release(
     retreat = ctx.straight(q_end, ctx.tcp_pose(back_xy, heading, z), ctx.free_check(avoid, opened))
     if retreat is None:
         return None
-    placed = avoid + Volume.of_object(name, ctx.beliefs[name].spec, final, ctx.surface.top_z)
+    spec = ctx.beliefs[name].spec
+    placed = avoid + Volume.of_object(name, spec, final, ctx.surface.top_z)
     rise = ctx.straight(
-        retreat[-1], ctx.tcp_pose(back_xy, heading, z + RISE), ctx.free_check(placed, opened)
+        retreat[-1],
+        ctx.tcp_pose(back_xy, heading, _rise_height(ctx, spec.height, z)),
+        ctx.free_check(placed, opened, exact=True),
     )
     if rise is None:
         return None
@@ -656,6 +687,9 @@ def _release(
 def sweep(ctx: PlanningContext, name: str, goal: Goal, avoid: Volume) -> Iterator[ActionResult]:
     """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first."""
     if isinstance(goal, Retrieve):
+        return
+    if not ctx.beliefs[name].spec.pushable:
+        ctx.fail(name, "sweep", "tips over when pushed")
         return
     found = 0
     for angle, handedness in _sweep_directions(ctx, name):
@@ -708,11 +742,13 @@ def _sweep_at(
     # A rigid translation along the sweep is a cheap first guess of how far to sweep; the
     # simulated evolution below decides.
     gap = float(_near_edge(spec.footprint, in_frame) - x_front)
+    if not isinstance(goal, AwayFrom):
+        return None
     guess = next(
         (
             gap + d
             for d in np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
-            if goal.accepts(ctx, name, _translated(belief.samples, d * frame.x_axis), False)
+            if goal.clearly_accepts(ctx, name, _translated(belief.samples, d * frame.x_axis))
         ),
         None,
     )
@@ -724,9 +760,28 @@ def _sweep_at(
     if not inside.all():
         ctx.fail(name, "sweep", "the sweep capture region misses some uncertainty samples")
         return None
+    # Reachability where the guess ends, before paying for the simulated evolution.
+    if ctx.solve(ctx.tcp_pose(start_xy + guess * frame.x_axis, approach, z), free) is None:
+        ctx.fail(name, "sweep", "no collision-free IK solution at the end of the sweep")
+        return None
     with ctx.timed("nu"):
+        # A pilot with the detected pose alone (a thirtieth of the work) says whether and
+        # roughly where the sweep reaches G; only then are all samples simulated.
         limit = min(ctx.settings.sweep_max, guess + 2 * SWEEP_CHUNK)
-        swept = _sweep_until(ctx, name, goal, region, frame, in_frame, limit)
+        pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
+        swept = (
+            None
+            if pilot is None
+            else _sweep_until(
+                ctx,
+                name,
+                goal,
+                region,
+                frame,
+                in_frame,
+                min(ctx.settings.sweep_max, pilot[0] + SWEEP_CHUNK),
+            )
+        )
     if swept is None:
         ctx.fail(name, "sweep", f"no sweep up to {ctx.settings.sweep_max} m ends {goal.describe()}")
         return None
@@ -749,12 +804,16 @@ def _sweep_at(
         return None
     placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
     back_xy = end_xy - 0.02 * frame.x_axis
-    retreat = ctx.straight(q_end, ctx.tcp_pose(back_xy, approach, z), free)
+    retreat = ctx.straight(
+        q_end, ctx.tcp_pose(back_xy, approach, z), ctx.free_check(placed, hand, exact=True)
+    )
     rise = (
         None
         if retreat is None
         else ctx.straight(
-            retreat[-1], ctx.tcp_pose(back_xy, approach, z + RISE), ctx.free_check(placed, hand)
+            retreat[-1],
+            ctx.tcp_pose(back_xy, approach, _rise_height(ctx, spec.height, z)),
+            ctx.free_check(placed, hand, exact=True),
         )
     )
     if retreat is None or rise is None:
@@ -786,6 +845,13 @@ def _near_edge(footprint: Footprint, poses: np.ndarray) -> float:
     return float((poses[:, 0] - reach).min())
 
 
+def _rise_height(ctx: PlanningContext, height: float, z: float) -> float:
+    """TCP height after releasing an object: RISE up, and high enough that the hand (its palm
+    reaches HAND_BELOW_TCP under the TCP) clears the object's top, so the transit that follows
+    starts above everything it leaves behind."""
+    return max(z + RISE, ctx.surface.top_z + height + HAND_BELOW_TCP + RISE_CLEARANCE)
+
+
 def _translated(poses: np.ndarray, shift: np.ndarray) -> np.ndarray:
     moved = np.array(poses, dtype=float)
     moved[:, :2] += shift
@@ -814,6 +880,7 @@ def _sweep_until(
     frame: Frame2D,
     in_frame: np.ndarray,
     limit: float,
+    step: float = NU_STEP,
 ) -> tuple[float, np.ndarray] | None:
     """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
 
@@ -827,7 +894,7 @@ def _sweep_until(
         ctx.check_budget()
         d = min(SWEEP_CHUNK, limit - advanced)
         k = max(1, math.ceil(d / NU_SPACING))
-        nu_hand = region.evolve(current, d, k, NU_STEP, chosen)
+        nu_hand = region.evolve(current, d, k, step, chosen)
         distances = advanced + np.linspace(0.0, d, k + 1)
         world = _to_world(frame, nu_hand, distances)
 

@@ -18,6 +18,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 
 import fcl
 import numpy as np
+import trimesh
 
 from clutter_gym.objects import ObjectSpec, Pose
 from clutter_gym.robot.geometry import ArmGeometry, Hand
@@ -39,6 +40,10 @@ SELF_COLLISION_GROUPS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
 )
 
 _REQUEST = fcl.CollisionRequest()
+
+SURFACE_PADDING = 0.015
+"""m added to every table or shelf box: the position-controlled arm lags its trajectory by up to
+about a centimetre, and the task fails the moment the robot touches the surface."""
 
 
 def _fcl_geometry(kind: str, dims: tuple[float, ...]) -> fcl.CollisionGeometry:
@@ -98,6 +103,8 @@ class Volume:
         self.owner: dict[int, str] = {id(geometry): label for _, geometry, label in self.parts}
         self._manager: fcl.DynamicAABBTreeCollisionManager | None = None
         self._by_label: dict[str, fcl.DynamicAABBTreeCollisionManager] = {}
+        self._floor: _FloorMap | None = None
+        self._hulled: Volume | None = None
 
     @classmethod
     def of_object(cls, name: str, spec: ObjectSpec, poses: np.ndarray, surface_z: float) -> Volume:
@@ -154,6 +161,33 @@ class Volume:
             return False
         return bool(_collide(self.manager, other.manager, _Query()).hits)
 
+    def hulled(self) -> Volume:
+        """One convex hull per label around all its parts: a conservative stand-in for a union
+        of uncertainty samples when the arm must avoid it. Tens of overlapping copies of an
+        object make the broad phase report hundreds of pairs per arm configuration; one hull
+        per object makes GoTo's collision checks about as cheap as without uncertainty."""
+        if self._hulled is None:
+            parts: list[Part] = []
+            for label in sorted(self.labels):
+                points = np.vstack(
+                    [_part_points(obj, g) for obj, g, owner in self.parts if owner == label]
+                )
+                hull = trimesh.convex.convex_hull(points)
+                faces = np.hstack([np.full((len(hull.faces), 1), 3), hull.faces]).ravel()
+                geometry = fcl.Convex(np.asarray(hull.vertices, float), len(hull.faces), faces)
+                parts.append((fcl.CollisionObject(geometry, fcl.Transform()), geometry, label))
+            self._hulled = Volume(parts)
+        return self._hulled
+
+    def lowest_over(self, boxes: np.ndarray) -> np.ndarray:
+        """For planar boxes (N, 4) as (x_min, x_max, y_min, y_max): the lowest point of this
+        volume above each (inf where nothing is), from a 1 cm top-view map of the parts'
+        bounding boxes. An object whose top is below that height certainly misses the volume:
+        a quick test before the exact one, since most goal poses are far from the NGR."""
+        if self._floor is None:
+            self._floor = _FloorMap(self.parts)
+        return self._floor.lowest_over(np.asarray(boxes, dtype=float).reshape(-1, 4))
+
     def penetrated(self, other: Volume) -> set[str]:
         """FindPenetrated: the labels of ``other`` whose shapes this volume penetrates."""
         if not self.parts:
@@ -165,29 +199,124 @@ class Volume:
         }
 
 
+_HULL_SIDES = 16
+
+
+def _part_points(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
+    """World points whose convex hull contains a placed box, cylinder or sphere."""
+    if isinstance(geometry, fcl.Cylinder):
+        # A polygon circumscribing the circle, so the hull contains the cylinder.
+        r = geometry.radius / np.cos(np.pi / _HULL_SIDES)
+        a = np.linspace(0.0, 2 * np.pi, _HULL_SIDES, endpoint=False)
+        ring = np.column_stack([r * np.cos(a), r * np.sin(a)])
+        h = geometry.lz / 2
+        local = np.vstack([np.c_[ring, np.full(len(ring), -h)], np.c_[ring, np.full(len(ring), h)]])
+    else:
+        half = (
+            np.asarray(geometry.side, dtype=float) / 2
+            if isinstance(geometry, fcl.Box)
+            else np.full(3, float(geometry.radius))
+        )
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        local = signs * half
+    return local @ np.asarray(obj.getRotation()).T + np.asarray(obj.getTranslation())
+
+
+def part_bounds(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
+    """World axis-aligned bounds (2, 3) of a placed box, cylinder or sphere."""
+    if isinstance(geometry, fcl.Box):
+        half = np.asarray(geometry.side, dtype=float) / 2
+    elif isinstance(geometry, fcl.Cylinder):
+        half = np.array([geometry.radius, geometry.radius, geometry.lz / 2])
+    else:
+        half = np.full(3, float(geometry.radius))
+    extent = np.abs(np.asarray(obj.getRotation())) @ half
+    centre = np.asarray(obj.getTranslation(), dtype=float)
+    return np.stack([centre - extent, centre + extent])
+
+
+class _FloorMap:
+    """Top-view grid of the lowest z of a volume's parts over each cell (bounding boxes)."""
+
+    RESOLUTION = 0.01
+
+    def __init__(self, parts: tuple[Part, ...]) -> None:
+        bounds = np.array([part_bounds(obj, g) for obj, g, _ in parts]).reshape(-1, 2, 3)
+        if not len(bounds):
+            self.origin = np.zeros(2)
+            self.lowest = np.full((1, 1), np.inf)
+            return
+        self.origin = bounds[:, 0, :2].min(0)
+        r = self.RESOLUTION
+        lo = np.floor((bounds[:, 0, :2] - self.origin) / r).astype(int)
+        hi = np.floor((bounds[:, 1, :2] - self.origin) / r).astype(int)
+        self.lowest = np.full(hi.max(0) + 1, np.inf)
+        for (i0, j0), (i1, j1), z in zip(lo, hi, bounds[:, 0, 2], strict=True):
+            cells = self.lowest[i0 : i1 + 1, j0 : j1 + 1]
+            np.minimum(cells, z, out=cells)
+
+    def hulled(self) -> Volume:
+        """One convex hull per label around all its parts: a conservative stand-in for a union
+        of uncertainty samples when the arm must avoid it. Tens of overlapping copies of an
+        object make the broad phase report hundreds of pairs per arm configuration; one hull
+        per object makes GoTo's collision checks about as cheap as without uncertainty."""
+        if self._hulled is None:
+            parts: list[Part] = []
+            for label in sorted(self.labels):
+                points = np.vstack(
+                    [_part_points(obj, g) for obj, g, owner in self.parts if owner == label]
+                )
+                hull = trimesh.convex.convex_hull(points)
+                faces = np.hstack([np.full((len(hull.faces), 1), 3), hull.faces]).ravel()
+                geometry = fcl.Convex(np.asarray(hull.vertices, float), len(hull.faces), faces)
+                parts.append((fcl.CollisionObject(geometry, fcl.Transform()), geometry, label))
+            self._hulled = Volume(parts)
+        return self._hulled
+
+    def lowest_over(self, boxes: np.ndarray) -> np.ndarray:
+        r = self.RESOLUTION
+        n, m = self.lowest.shape
+        i0 = np.floor((boxes[:, 0] - self.origin[0]) / r).astype(int).clip(0, n)
+        i1 = np.floor((boxes[:, 1] - self.origin[0]) / r).astype(int).clip(-1, n - 1)
+        j0 = np.floor((boxes[:, 2] - self.origin[1]) / r).astype(int).clip(0, m)
+        j1 = np.floor((boxes[:, 3] - self.origin[1]) / r).astype(int).clip(-1, m - 1)
+        out = np.full(len(boxes), np.inf)
+        for k in range(len(boxes)):
+            if i0[k] <= i1[k] and j0[k] <= j1[k]:
+                out[k] = self.lowest[i0[k] : i1[k] + 1, j0[k] : j1[k] + 1].min()
+        return out
+
+
 class CollisionWorld:
     """The static scene: surface boxes and object volumes, in separate managers so that
     surface-only checks (IK) never look at objects. An object may occupy several poses (its
     uncertainty samples): the arm must then avoid all of them."""
 
-    def __init__(self, surface: Surface, objects: Mapping[str, tuple[ObjectSpec, Pose]]) -> None:
+    def __init__(
+        self,
+        surface: Surface,
+        objects: Mapping[str, tuple[ObjectSpec, Pose]],
+        padding: float = SURFACE_PADDING,
+    ) -> None:
         volume = Volume()
         for name, (spec, pose) in objects.items():
             volume += Volume.of_object(name, spec, np.asarray(pose), surface.top_z)
-        self._init(surface, volume)
+        self._init(surface, volume, padding)
 
     @classmethod
-    def around(cls, surface: Surface, obstacles: Volume) -> CollisionWorld:
+    def around(
+        cls, surface: Surface, obstacles: Volume, padding: float = SURFACE_PADDING
+    ) -> CollisionWorld:
         """A world whose objects are a `Volume` (e.g. an avoid volume of uncertainty samples)."""
         world = cls.__new__(cls)
-        world._init(surface, obstacles)
+        world._init(surface, obstacles, padding)
         return world
 
-    def _init(self, surface: Surface, obstacles: Volume) -> None:
+    def _init(self, surface: Surface, obstacles: Volume, padding: float) -> None:
         self.surface = surface
         self._surface_objects = [
             fcl.CollisionObject(
-                fcl.Box(*(2.0 * h for h in box.half_extents)),
+                fcl.Box(*(2.0 * (h + padding) for h in box.half_extents)),
                 fcl.Transform(np.asarray(box.centre, dtype=float)),
             )
             for box in surface.boxes
@@ -326,9 +455,13 @@ def interpolate(path: np.ndarray, step_rad: float) -> np.ndarray:
 
 
 def make_checker(
-    surface: Surface, objects: Mapping[str, tuple[ObjectSpec, Pose]], side: str = "right"
+    surface: Surface,
+    objects: Mapping[str, tuple[ObjectSpec, Pose]],
+    side: str = "right",
+    padding: float = SURFACE_PADDING,
 ) -> CollisionChecker:
-    """A checker for one arm of HERB in a scene."""
+    """A checker for one arm of HERB in a scene (``padding=0`` for the exact surface)."""
     return CollisionChecker(
-        CollisionWorld(surface, objects), RobotCollision(ArmKinematics(side), ArmGeometry())
+        CollisionWorld(surface, objects, padding),
+        RobotCollision(ArmKinematics(side), ArmGeometry()),
     )

@@ -141,7 +141,9 @@ def plan_retrieval(
     search = _Search(ctx, np.clip(q0, kinematics.lower, kinematics.upper), actions)
     reason = ""
     try:
-        steps = search.rearrange(goal, Retrieve(), Volume(), (), (), None, 0)
+        # Objects no action can move stably are avoided by every motion from the start.
+        fixed = tuple(sorted(b.name for b in beliefs if not b.spec.pushable and b.name != goal))
+        steps = search.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
         if steps is None:
             reason = "no plan: every action for the goal object failed (see blocked_by)"
     except BudgetExceeded:

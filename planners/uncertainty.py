@@ -17,8 +17,16 @@ from clutter_gym.objects import ObjectSpec
 from clutter_gym.perception import wrap_angle
 from clutter_gym.scene import NOISE_LEVELS
 
-SAMPLE_COUNTS: dict[str, int] = {"sigma1": 1, "sigma2": 30, "sigma3": 50, "sigma4": 50}
-"""The paper's sample counts per noise level (§3.1.2, Table 1)."""
+SAMPLE_COUNTS: dict[str, int] = {
+    "sigma1": 1,
+    "sigma2": 30,
+    "sigma3": 50,
+    "sigma4": 50,
+    "detector": 30,
+    "fig2": 20,
+}
+"""The paper's sample counts per noise level (§3.1.2, Table 1; the real detector n = 30;
+Fig. 2's example n = 20)."""
 CUSTOM_SAMPLES = 50
 """Samples for noise that is not one of the paper's levels (the paper's largest count)."""
 

@@ -18,7 +18,13 @@ from clutter_gym.robot.geometry import ArmGeometry, Hand
 from clutter_gym.robot.herb import hand_targets
 from clutter_gym.robot.kinematics import ArmKinematics
 from clutter_gym.world import TABLE
-from planners.collision import SELF_COLLISION_GROUPS, CollisionChecker, interpolate, make_checker
+from planners.collision import (
+    SELF_COLLISION_GROUPS,
+    SURFACE_PADDING,
+    CollisionChecker,
+    interpolate,
+    make_checker,
+)
 from planners.direct_grasp import approach_rotation
 
 CAN_XY = (0.90, -0.30)
@@ -72,7 +78,8 @@ def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
 
 @pytest.fixture(scope="module")
 def checker() -> CollisionChecker:
-    return make_checker(TABLE, SCENE)
+    # The exact surface, to compare with pybullet; planners pad it by SURFACE_PADDING.
+    return make_checker(TABLE, SCENE, padding=0.0)
 
 
 def tcp_target(
@@ -247,3 +254,14 @@ def test_self_collision_agrees_with_pybullet(checker: CollisionChecker, bullet: 
         if abs(distance) > 0.002:
             assert checker.robot.self_collision(q, hand) == (distance < 0)
     assert hits > 0
+
+
+def test_planning_pads_the_surface() -> None:
+    """A hand 1 cm above the table is free for the exact surface, not for planning."""
+    kinematics = ArmKinematics("right")
+    target = tcp_target(0.9, -0.3, TABLE.top_z + hm.HAND_PALM_RADIUS + 0.01)
+    q = kinematics.solve_ik(target, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    assert q is not None
+    assert not make_checker(TABLE, {}, padding=0.0).surface_collision(q)
+    assert SURFACE_PADDING > 0.01
+    assert make_checker(TABLE, {}).surface_collision(q)
