@@ -100,7 +100,7 @@ def plan_from_detection(
     sigma = resolve_noise(scene.noise)
     n = samples or sample_count(sigma)
     beliefs = [
-        ObjectBelief(o.name, get_object(o.kind), tuple(d), sample_poses(d, sigma, n, rng))  # type: ignore[arg-type]
+        ObjectBelief(o.name, get_object(o.kind), tuple(d), sample_poses(d, sigma, n, rng))
         for o, d in zip(scene.objects, detection, strict=True)
     ]
     plan = plan_retrieval(
@@ -243,9 +243,12 @@ def _trials(
     done = _done(log)
     jobs = [(i, w, actions) for i, w in enumerate(worlds) if i not in done]
     log.parent.mkdir(parents=True, exist_ok=True)
-    with log.open("a") as handle, tqdm(
-        total=len(worlds), initial=len(worlds) - len(jobs), desc="execute", unit="trial"
-    ) as bar:
+    with (
+        log.open("a") as handle,
+        tqdm(
+            total=len(worlds), initial=len(worlds) - len(jobs), desc="execute", unit="trial"
+        ) as bar,
+    ):
         for index, outcome in _outcomes(jobs, workers):
             handle.write(json.dumps({"index": index, "outcome": outcome}) + "\n")
             handle.flush()
@@ -267,4 +270,3 @@ def _trials(
         "mean_execution_simulated_s": round(float(np.mean(sim)), 2) if sim else None,
         "trial_outcomes": outcomes,
     }
-

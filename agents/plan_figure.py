@@ -101,9 +101,7 @@ def _panel(
     ax.tick_params(labelsize=6)
 
 
-def write_timeline(
-    plan: Plan, beliefs: list[ObjectBelief], surface: Surface, out: Path
-) -> None:
+def write_timeline(plan: Plan, beliefs: list[ObjectBelief], surface: Surface, out: Path) -> None:
     """Save the timeline PNG (planning order: the goal's step first)."""
     if not plan.steps:
         raise ValueError("the plan has no steps to draw")

@@ -172,9 +172,7 @@ class AwayFrom:
         if not near.any():
             return True
         spec = ctx.beliefs[name].spec
-        return not Volume.of_object(name, spec, final[near], ctx.surface.top_z).intersects(
-            self.ngr
-        )
+        return not Volume.of_object(name, spec, final[near], ctx.surface.top_z).intersects(self.ngr)
 
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         """A quick sufficient test: stable, and every pose's bounding square clears the NGR
@@ -346,7 +344,7 @@ class PlanningContext:
             )
         m = STABLE_MARGIN
         for pose in p:
-            lo_x, hi_x, lo_y, hi_y = footprint.aabb(tuple(pose))  # type: ignore[arg-type]
+            lo_x, hi_x, lo_y, hi_y = footprint.aabb(tuple(pose))
             if lo_x < x0 + m or hi_x > x1 - m or lo_y < y0 + m or hi_y > y1 - m:
                 return False
         return True
@@ -645,9 +643,7 @@ def _retrieve(
     if pull is None:
         return None, np.empty((0, len(in_hand), 3))
     steps = max(1, math.ceil(float(np.linalg.norm(shift)) / NU_SPACING))
-    carried = np.stack(
-        [in_hand + np.r_[shift * k / steps, 0.0] for k in range(1, steps + 1)]
-    )
+    carried = np.stack([in_hand + np.r_[shift * k / steps, 0.0] for k in range(1, steps + 1)])
     return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
 
 

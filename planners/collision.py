@@ -255,24 +255,6 @@ class _FloorMap:
             cells = self.lowest[i0 : i1 + 1, j0 : j1 + 1]
             np.minimum(cells, z, out=cells)
 
-    def hulled(self) -> Volume:
-        """One convex hull per label around all its parts: a conservative stand-in for a union
-        of uncertainty samples when the arm must avoid it. Tens of overlapping copies of an
-        object make the broad phase report hundreds of pairs per arm configuration; one hull
-        per object makes GoTo's collision checks about as cheap as without uncertainty."""
-        if self._hulled is None:
-            parts: list[Part] = []
-            for label in sorted(self.labels):
-                points = np.vstack(
-                    [_part_points(obj, g) for obj, g, owner in self.parts if owner == label]
-                )
-                hull = trimesh.convex.convex_hull(points)
-                faces = np.hstack([np.full((len(hull.faces), 1), 3), hull.faces]).ravel()
-                geometry = fcl.Convex(np.asarray(hull.vertices, float), len(hull.faces), faces)
-                parts.append((fcl.CollisionObject(geometry, fcl.Transform()), geometry, label))
-            self._hulled = Volume(parts)
-        return self._hulled
-
     def lowest_over(self, boxes: np.ndarray) -> np.ndarray:
         r = self.RESOLUTION
         n, m = self.lowest.shape

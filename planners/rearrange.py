@@ -264,6 +264,8 @@ class _Search:
 
 def plan_rows(plan: Plan) -> np.ndarray:
     """The whole plan as (N, 9) env trajectory rows."""
+    if not plan.steps:
+        raise ValueError(f"the plan has no steps: {plan.reason}")
     return np.vstack([s.motion.rows() for s in plan.steps])
 
 

@@ -113,3 +113,63 @@ def test_written_files_get_normal_permissions(tmp_path: Path) -> None:
     umask = os.umask(0)
     os.umask(umask)
     assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() would, not mkstemp's 0600
+
+
+LONE_CAN = {
+    "format": "clutter-gym-scene/1",
+    "surface": "table",
+    "objects": [{"name": "red_can", "kind": "soda_can", "pose": [0.95, -0.25, 0.0]}],
+    "goal": {"object": "red_can"},
+    "noise": "sigma2",
+}
+
+
+def test_plan_executes_on_true_worlds_and_resumes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = tmp_path / "can.json"
+    scene.write_text(json.dumps(LONE_CAN))
+    out = tmp_path / "plan.json"
+    args = ["plan", "--scene", str(scene), "--execute", "--trials", "2", "--workers", "1"]
+    assert main([*args, "--json", str(out), "--figure", str(tmp_path / "t.png")]) == 0
+    report = json.loads(out.read_text())
+    assert report["success"] and report["actions"] == 1 and report["samples"] == 30
+    assert report["trials"] == 2 and report["execution_success_rate"] == 1.0
+    assert (tmp_path / "t.png").stat().st_size > 10_000
+    log = next(tmp_path.glob("plan.json.*.trials.jsonl"))
+    assert len(log.read_text().splitlines()) == 2
+    capsys.readouterr()
+    # A rerun finds both trials done and executes nothing new.
+    assert main([*args, "--json", str(out)]) == 0
+    assert len(log.read_text().splitlines()) == 2
+
+
+def test_plan_reports_why_there_is_no_plan(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    far = dict(
+        LONE_CAN, objects=[{"name": "red_can", "kind": "soda_can", "pose": [1.33, 0.65, 0.0]}]
+    )
+    scene = tmp_path / "far.json"
+    scene.write_text(json.dumps(far))
+    assert main(["plan", "--scene", str(scene), "--budget", "3"]) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out.splitlines()[-1])["success"] is False
+    assert "blocked by: pickup red_can" in captured.err
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--planner", "teleport"], "allowed: pushing"),
+        (["--noise", "sigma9"], "noise"),
+        (["--samples", "0"], "samples"),
+    ],
+)
+def test_plan_bad_arguments_are_one_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    scene = tmp_path / "can.json"
+    scene.write_text(json.dumps(LONE_CAN))
+    assert main(["plan", "--scene", str(scene), *extra]) == 2
+    assert message in capsys.readouterr().err

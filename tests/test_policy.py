@@ -1,0 +1,83 @@
+"""The Rearrange planner as a Gymnasium policy, executed in the pybullet env."""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import clutter_gym  # noqa: F401  (registers the env)
+from agents.rearrange_policy import RearrangePolicy, check_planner
+from clutter_gym.scene import load_scene, scene_from_dict
+from planners.actions import PlannerSettings
+
+LONE_CAN = {
+    "format": "clutter-gym-scene/1",
+    "surface": "table",
+    "objects": [{"name": "red_can", "kind": "soda_can", "pose": [0.95, -0.25, 0.0]}],
+    "goal": {"object": "red_can"},
+    "noise": "sigma3",
+}
+
+
+def rollout(
+    scene: Any, policy_kwargs: dict[str, Any], seed: int = 0
+) -> tuple[dict, RearrangePolicy]:
+    env = gym.make("ClutterRetrieve-v0", step_limit=40)
+    try:
+        obs, info = env.reset(seed=seed, options={"scene": scene})
+        policy = RearrangePolicy(16, names=info["object_names"], **policy_kwargs)
+        terminated = truncated = False
+        while not (terminated or truncated):
+            action = policy(obs)
+            assert env.action_space.contains(action)
+            obs, _, terminated, truncated, info = env.step(action)
+            if policy.failure:
+                break
+    finally:
+        env.close()
+    return info, policy
+
+
+def test_open_loop_policy_retrieves_a_can_under_sigma3() -> None:
+    info, policy = rollout(scene_from_dict(LONE_CAN), {})
+    assert policy.plan is not None and policy.plan.success
+    assert len(policy.plans) == 1  # planned once, from the first detection
+    assert info["is_success"] and info["goal_held"] and not info["failure"]
+
+
+def test_closed_loop_policy_replans_after_each_action() -> None:
+    text = (
+        resources.files("clutter_gym")
+        .joinpath("scenes/figures/fig3_can_box_dumbbell.json")
+        .read_text()
+    )
+    info, policy = rollout(load_scene(json.loads(text)), {"closed_loop": True})
+    assert info["is_success"], policy.failure
+    assert len(policy.plans) == 2  # sweep the box, then replan the pickup from a new detection
+    assert policy.plans[0].objects_moved == ["big_box"]
+    assert policy.plans[1].objects_moved == []
+
+
+def test_policy_without_a_plan_holds_still_and_says_why() -> None:
+    far = dict(
+        LONE_CAN, objects=[{"name": "red_can", "kind": "soda_can", "pose": [1.33, 0.65, 0.0]}]
+    )
+    env = gym.make("ClutterRetrieve-v0")
+    try:
+        obs, _ = env.reset(seed=0, options={"scene": scene_from_dict(far)})
+        policy = RearrangePolicy(16, settings=PlannerSettings(time_budget=3.0))
+        action = policy(obs)
+        assert policy.failure and policy.plan is not None and policy.plan.blocked_by
+        assert np.allclose(action[:, :7], obs["arm_joints"], atol=1e-6)
+    finally:
+        env.close()
+
+
+def test_unknown_planner_lists_the_choices() -> None:
+    with pytest.raises(ValueError, match="allowed: pushing"):
+        check_planner("teleport")
