@@ -86,7 +86,7 @@ def _ompl_plan(
     time_budget: float,
     resolution: float,
 ) -> np.ndarray | None:
-    """RRTConnect then ``simplifyMax``; the waypoints, or None if no exact solution was found."""
+    """RRTConnect, then shortcutting; the waypoints, or None if no exact solution was found."""
     space = ob.RealVectorStateSpace(DOF)
     bounds = ob.RealVectorBounds(DOF)
     for i in range(DOF):
@@ -113,7 +113,11 @@ def _ompl_plan(
     if status.getStatus() != ob.PlannerStatus.EXACT_SOLUTION:
         return None
     path = setup.getSolutionPath()
-    og.PathSimplifier(info).simplifyMax(path)
+    # Shortcuts with a fixed number of attempts (seeded, so deterministic); simplifyMax also
+    # smooths until nothing improves, which cost 1 s of collision checks per path here.
+    simplifier = og.PathSimplifier(info)
+    simplifier.reduceVertices(path)
+    simplifier.collapseCloseVertices(path)
     return np.array(
         [[path.getState(k)[i] for i in range(DOF)] for k in range(path.getStateCount())],
         dtype=float,
