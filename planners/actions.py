@@ -682,33 +682,35 @@ def _release(
 # --------------------------------------------------------------------------------------------
 def sweep(ctx: PlanningContext, name: str, goal: Goal, avoid: Volume) -> Iterator[ActionResult]:
     """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first."""
-    if isinstance(goal, Retrieve):
+    if not isinstance(goal, AwayFrom):
         return
     if not ctx.beliefs[name].spec.pushable:
         ctx.fail(name, "sweep", "tips over when pushed")
         return
     found = 0
     for angle, handedness in _sweep_directions(ctx, name):
-        for y_fraction in (0.5, 0.25, 0.75):
-            ctx.check_budget()
-            ctx.stats.actions_tried += 1
-            result = _sweep_at(ctx, name, goal, avoid, angle, handedness, y_fraction)
-            if result is not None:
-                yield result
-                found += 1
-                if found >= ctx.settings.candidates_per_action:
-                    return
-                break
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        result = _sweep_at(ctx, name, goal, avoid, angle, handedness)
+        if result is not None:
+            yield result
+            found += 1
+            if found >= ctx.settings.candidates_per_action:
+                return
+
+
+SWEEP_PLACEMENTS = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9)
+"""Where the object's centre meets the hand's side, as fractions from the wrist end to the
+fingertip, most central first."""
 
 
 def _sweep_at(
     ctx: PlanningContext,
     name: str,
-    goal: Goal,
+    goal: AwayFrom,
     avoid: Volume,
     angle: float,
     handedness: int,
-    y_fraction: float,
 ) -> ActionResult | None:
     belief = ctx.beliefs[name]
     spec = belief.spec
@@ -716,45 +718,45 @@ def _sweep_at(
     profile = sweep_profile(region.aperture)
     approach = angle + handedness * math.pi / 2
     z = ctx.surface.top_z + grasp_height(spec.height)
-    centre = belief.samples[0, :2]
-    local = Frame2D((float(centre[0]), float(centre[1])), angle, handedness).to_frame(
-        belief.samples
-    )
+    centre = (float(belief.samples[0, 0]), float(belief.samples[0, 1]))
+    local = Frame2D(centre, angle, handedness).to_frame(belief.samples)
     lo, hi = profile.span
     x_front = profile.pusher.bounds[1]
     x0 = _near_edge(spec.footprint, local) - x_front - START_CLEARANCE
-    y0 = local[:, 1].mean() - (lo + y_fraction * (hi - lo))
-    origin = Frame2D((float(centre[0]), float(centre[1])), angle, handedness).to_world(
-        np.array([x0, y0, 0.0])
-    )
-    start_xy = origin[:2]
-    frame = Frame2D((float(start_xy[0]), float(start_xy[1])), angle, handedness)
-    in_frame = frame.to_frame(belief.samples)
-    hand: Hand = (0.0, closure_for_aperture(region.aperture))
-    free = ctx.free_check(avoid, hand)
-    if ctx.solve(ctx.tcp_pose(start_xy, approach, z), free) is None:
-        ctx.fail(name, "sweep", "no collision-free IK solution at the start of the sweep")
-        return None
-    # A rigid translation along the sweep is a cheap first guess of how far to sweep; the
-    # simulated evolution below decides.
-    gap = float(_near_edge(spec.footprint, in_frame) - x_front)
-    if not isinstance(goal, AwayFrom):
-        return None
+    # A rigid translation along the sweep is a cheap first guess of how far to sweep (the
+    # simulated evolution below decides); it does not depend on where along the hand.
+    direction = Frame2D(centre, angle, handedness).x_axis
+    gap = START_CLEARANCE
     guess = next(
         (
             gap + d
             for d in np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
-            if goal.clearly_accepts(ctx, name, _translated(belief.samples, d * frame.x_axis))
+            if goal.clearly_accepts(ctx, name, _translated(belief.samples, d * direction))
         ),
         None,
     )
     if guess is None:
         ctx.fail(name, "sweep", f"no sweep up to {ctx.settings.sweep_max} m ends {goal.describe()}")
         return None
+    placement = None
     with ctx.timed("capture"):
-        inside, _ = region.query(in_frame, float(guess))
-    if not inside.all():
+        for fraction in SWEEP_PLACEMENTS:
+            y0 = local[:, 1].mean() - (lo + fraction * (hi - lo))
+            origin = Frame2D(centre, angle, handedness).to_world(np.array([x0, y0, 0.0]))
+            frame = Frame2D((float(origin[0]), float(origin[1])), angle, handedness)
+            in_frame = frame.to_frame(belief.samples)
+            if region.query(in_frame, float(guess))[0].all():
+                placement = frame, in_frame
+                break
+    if placement is None:
         ctx.fail(name, "sweep", "the sweep capture region misses some uncertainty samples")
+        return None
+    frame, in_frame = placement
+    start_xy = np.asarray(frame.origin)
+    hand: Hand = (0.0, closure_for_aperture(region.aperture))
+    free = ctx.free_check(avoid, hand)
+    if ctx.solve(ctx.tcp_pose(start_xy, approach, z), free) is None:
+        ctx.fail(name, "sweep", "no collision-free IK solution at the start of the sweep")
         return None
     # Reachability where the guess ends, before paying for the simulated evolution.
     if ctx.solve(ctx.tcp_pose(start_xy + guess * frame.x_axis, approach, z), free) is None:
@@ -763,8 +765,9 @@ def _sweep_at(
     with ctx.timed("nu"):
         # A pilot with the detected pose alone (a thirtieth of the work) says whether and
         # roughly where the sweep reaches G; only then are all samples simulated.
-        limit = min(ctx.settings.sweep_max, guess + 2 * SWEEP_CHUNK)
-        pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
+        pilot = _sweep_until(
+            ctx, name, goal, region, frame, in_frame[:1], ctx.settings.sweep_max, PILOT_STEP
+        )
         swept = (
             None
             if pilot is None
