@@ -5,7 +5,7 @@ clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100]
     [--gif out.gif] [--figure timeline.png]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
-clutter-gym bench env --json out.json
+clutter-gym bench env|capture|plan --json out.json
 """
 
 from __future__ import annotations
@@ -98,6 +98,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
         objects = tuple(args.objects.split(",")) if args.objects else None
         result = bench_capture(objects)
+    elif args.target == "plan":
+        from agents.plan_bench import bench_plan
+
+        result = bench_plan(args.seeds)
     else:
         from clutter_gym.bench import bench_env
 
@@ -205,12 +209,13 @@ def build_parser() -> argparse.ArgumentParser:
     figure.set_defaults(func=_cmd_capture_region)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
-    bench.add_argument("target", choices=("env", "capture"))
+    bench.add_argument("target", choices=("env", "capture", "plan"))
     bench.add_argument("--json", default=None, help="write the result to this file")
     bench.add_argument("--steps", type=int, default=2000, help="low-level steps to time")
     bench.add_argument("--trajectory-steps", type=int, default=20)
     bench.add_argument("--resets", type=int, default=1000)
     bench.add_argument("--objects", default=None, help="capture: comma-separated kinds")
+    bench.add_argument("--seeds", type=int, default=3, help="plan: detections per scene")
     bench.set_defaults(func=_cmd_bench)
     return parser
 

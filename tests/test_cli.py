@@ -71,6 +71,16 @@ def test_bench_env_writes_json(tmp_path: Path) -> None:
     assert result["resets"] == 5
 
 
+def test_bench_plan_writes_json(tmp_path: Path) -> None:
+    out = tmp_path / "plan.json"
+    assert main(["bench", "plan", "--seeds", "1", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    fig3 = result["fig3_can_box_dumbbell/sigma2"]
+    assert fig3["planned"] == 1 and fig3["objects_moved"] == [["big_box"]]
+    assert 0 < fig3["median_planning_time_s"] < 60
+    assert set(result) >= {"fig2_high_uncertainty/sigma3", "fig16_shelf_can_behind_box/sigma2"}
+
+
 def test_console_script_is_installed() -> None:
     exe = shutil.which("clutter-gym")
     assert exe is not None

@@ -1,0 +1,44 @@
+"""`clutter-gym bench plan`: Rearrange's planning time on the paper's figure scenes, as JSON.
+
+Each scene is planned at each noise level from ``seeds`` different detections (the seed draws
+the detection, the uncertainty samples and OMPL's random numbers); the report gives every
+planning time, the median, the plans found and what they move. Execution is measured by
+``clutter-gym plan --execute``, not here.
+"""
+
+from __future__ import annotations
+
+import platform
+import statistics
+from importlib import resources
+from typing import Any
+
+from tqdm import tqdm
+
+from agents.execute import run_plan
+
+SCENES = (
+    "fig3_can_box_dumbbell",
+    "fig2_high_uncertainty",
+    "fig16_shelf_can_behind_box",
+)
+NOISES = ("sigma2", "sigma3")
+
+
+def bench_plan(seeds: int = 3, noises: tuple[str, ...] = NOISES) -> dict[str, Any]:
+    if seeds < 1:
+        raise ValueError(f"seeds: {seeds}; must be >= 1")
+    result: dict[str, Any] = {"benchmark": "plan", "python": platform.python_version()}
+    jobs = [(scene, noise) for scene in SCENES for noise in noises]
+    for scene, noise in tqdm(jobs, desc="bench plan", unit="scene"):
+        path = resources.files("clutter_gym").joinpath(f"scenes/figures/{scene}.json")
+        runs = [run_plan(str(path), noise=noise, seed=seed) for seed in range(seeds)]
+        times = [r["planning_time_s"] for r in runs]
+        result[f"{scene}/{noise}"] = {
+            "planned": sum(r["success"] for r in runs),
+            "seeds": seeds,
+            "planning_time_s": times,
+            "median_planning_time_s": round(statistics.median(times), 3),
+            "objects_moved": [r["objects_moved"] for r in runs if r["success"]],
+        }
+    return result
