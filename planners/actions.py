@@ -458,8 +458,8 @@ def _headings(ctx: PlanningContext, base: float, step_deg: float) -> list[float]
 
 
 def _push_headings(ctx: PlanningContext, name: str, reach: float) -> list[float]:
-    """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in, then
-    closest to the shoulder-object line."""
+    """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in and by
+    the object and fingers on their way on, then closest to the shoulder-object line."""
     centre = ctx.beliefs[name].samples[0, :2]
     base = _base_heading(ctx, centre)
     radius = ctx.beliefs[name].spec.footprint.bounding_radius
@@ -467,6 +467,8 @@ def _push_headings(ctx: PlanningContext, name: str, reach: float) -> list[float]
     for h in _headings(ctx, base, ctx.settings.heading_step_deg):
         v = np.array([math.cos(h), math.sin(h)])
         hits = _corridor_hits(ctx, name, centre - (radius + 0.30) * v, centre, 2 * reach)
+        # Where the object and the fingers go: pushing it into others is as bad.
+        hits += _corridor_hits(ctx, name, centre, centre + (radius + 0.15) * v, 2 * reach)
         scored.append((hits, abs(h - base), h))
     return [h for _, _, h in sorted(scored)]
 
