@@ -781,6 +781,7 @@ def _sweep_at(
                 frame,
                 in_frame,
                 min(ctx.settings.sweep_max, pilot[0] + SWEEP_CHUNK),
+                check_from=pilot[0] - SWEEP_CHUNK,
             )
         )
     if swept is None:
@@ -882,11 +883,13 @@ def _sweep_until(
     in_frame: np.ndarray,
     limit: float,
     step: float = NU_STEP,
+    check_from: float = 0.0,
 ) -> tuple[float, np.ndarray] | None:
     """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
 
     The evolution is simulated a chunk at a time and stops as soon as G is reached: sweeping a
-    box under every (mu_c, c) is the planner's most expensive computation."""
+    box under every (mu_c, c) is the planner's most expensive computation. G is tested from
+    ``check_from`` on (a pilot run tells roughly where it is reached)."""
     chosen = extreme_parameters(region.mus, region.cs)
     current: np.ndarray = in_frame
     stages = [_to_world(frame, np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
@@ -899,7 +902,9 @@ def _sweep_until(
         distances = advanced + np.linspace(0.0, d, k + 1)
         world = _to_world(frame, nu_hand, distances)
 
-        if _reached(ctx, name, goal, region, in_frame, float(distances[k]), world[k]):
+        if distances[k] >= check_from and _reached(
+            ctx, name, goal, region, in_frame, float(distances[k]), world[k]
+        ):
             j = next(
                 j
                 for j in range(1, k + 1)
