@@ -52,7 +52,7 @@ from planners.collision import (
 )
 from planners.direct_grasp import LIFT, approach_rotation, grasp_height
 from planners.frames import Frame2D
-from planners.goto import plan_goto
+from planners.goto import plan_goto, upright_hand
 from planners.hand2d import closure_for_aperture, push_grasp_profile, sweep_profile
 from planners.uncertainty import ObjectBelief
 
@@ -641,12 +641,60 @@ def _retrieve(
         return None, np.empty((0, len(in_hand), 3))
     (x0, x1), _ = ctx.goal_region
     shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), 0.0])
-    pull = ctx.straight(raise_[-1], ctx.tcp_pose(end_xy + shift, heading, z + SHELF_LIFT), free)
+    target = ctx.tcp_pose(end_xy + shift, heading, z + SHELF_LIFT)
+    pull = ctx.straight(raise_[-1], target, free)
+    if pull is None:
+        # Blocked or out of reach in a straight line: carry the object along any path that
+        # keeps it upright (GoTo on the constraint manifold).
+        pull = _carry(ctx, raise_[-1], target, free)
     if pull is None:
         return None, np.empty((0, len(in_hand), 3))
-    steps = max(1, math.ceil(float(np.linalg.norm(shift)) / NU_SPACING))
-    carried = np.stack([in_hand + np.r_[shift * k / steps, 0.0] for k in range(1, steps + 1)])
+    carried = _carried_poses(ctx, pull, in_hand)
     return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
+
+
+def _carry(
+    ctx: PlanningContext,
+    q_start: np.ndarray,
+    target: np.ndarray,
+    free: Callable[[np.ndarray], bool],
+) -> np.ndarray | None:
+    """GoTo with a grasped object kept upright (the hand's finger plane horizontal)."""
+    q_goal = ctx.solve(target, free)
+    if q_goal is None:
+        return None
+    ctx.check_budget()
+    with ctx.timed("goto"):
+        result = plan_goto(
+            q_start,
+            q_goal,
+            free,
+            ctx.kinematics.lower,
+            ctx.kinematics.upper,
+            time_budget=max(min(ctx.settings.goto_budget, ctx.remaining()), 1e-3),
+            seed=ctx.settings.seed,
+            resolution=ARM_CHECK_STEP,
+            constraint=upright_hand(ctx.kinematics),
+        )
+    return result.path
+
+
+def _carried_poses(ctx: PlanningContext, path: np.ndarray, in_hand: np.ndarray) -> np.ndarray:
+    """Object sample poses (S, N, 3) along a carrying path: rigidly attached to the TCP in the
+    plane (the hand stays level), every NU_SPACING of TCP travel."""
+    tcps = ctx.kinematics.fk_tcp_batch(path)
+    xy, yaw = tcps[:, :2, 3], np.arctan2(tcps[:, 1, 2], tcps[:, 0, 2])
+    travel = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
+    marks = np.arange(NU_SPACING, travel[-1] + NU_SPACING, NU_SPACING).clip(max=travel[-1])
+    rows = np.unique(np.searchsorted(travel, marks).clip(max=len(path) - 1))
+    stages = []
+    for k in rows:
+        turn = yaw[k] - yaw[0]
+        c, s = math.cos(turn), math.sin(turn)
+        rel = in_hand[:, :2] - xy[0]
+        moved = xy[k] + rel @ np.array([[c, s], [-s, c]])
+        stages.append(np.column_stack([moved, in_hand[:, 2] + turn]))
+    return np.stack(stages) if stages else np.empty((0, len(in_hand), 3))
 
 
 def _release(

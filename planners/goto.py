@@ -21,6 +21,7 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
+from clutter_gym.robot.kinematics import ArmKinematics
 from planners.collision import interpolate
 
 DOF = 7
@@ -77,6 +78,46 @@ def _reseed(seed: int) -> None:
         ou.setLogLevel(level)
 
 
+@dataclass(frozen=True)
+class JointConstraint:
+    """A task constraint f(q) = 0 on the arm's joints, with its Jacobian (k, 7): GoTo then plans
+    on the constraint manifold with OMPL's ProjectedStateSpace (e.g. a grasped object kept
+    upright). ``tolerance`` is how far from zero |f| may be at a checked configuration."""
+
+    codimension: int
+    function: Callable[[np.ndarray], np.ndarray]
+    jacobian: Callable[[np.ndarray], np.ndarray]
+    tolerance: float = 1e-3
+
+
+class _OmplConstraint(ob.Constraint):
+    def __init__(self, constraint: JointConstraint) -> None:
+        super().__init__(DOF, constraint.codimension)
+        self.constraint = constraint
+
+    def function(self, x: np.ndarray, out: np.ndarray) -> None:
+        out[:] = self.constraint.function(np.asarray(x, dtype=float))
+
+    def jacobian(self, x: np.ndarray, out: np.ndarray) -> None:
+        out[:, :] = self.constraint.jacobian(np.asarray(x, dtype=float))
+
+
+def upright_hand(kinematics: ArmKinematics) -> JointConstraint:
+    """The hand's x axis stays vertical: the finger plane horizontal, so a grasped object
+    standing upright stays upright, whatever the heading (the 2 horizontal components of the
+    axis are the constraint; their Jacobian is w_i x axis from the angular Jacobian)."""
+
+    def function(q: np.ndarray) -> np.ndarray:
+        return kinematics.fk_tcp(q)[:2, 0].copy()
+
+    def jacobian(q: np.ndarray) -> np.ndarray:
+        axis = kinematics.fk_tcp(q)[:3, 0]
+        angular = kinematics.jacobian(q)[3:]
+        return np.cross(angular.T, axis).T[:2]
+
+    return JointConstraint(2, function, jacobian)
+
+
 def _ompl_plan(
     start: np.ndarray,
     goal: np.ndarray,
@@ -85,15 +126,22 @@ def _ompl_plan(
     upper: np.ndarray,
     time_budget: float,
     resolution: float,
+    constraint: JointConstraint | None = None,
 ) -> np.ndarray | None:
     """RRTConnect, then shortcutting; the waypoints, or None if no exact solution was found."""
-    space = ob.RealVectorStateSpace(DOF)
+    ambient = ob.RealVectorStateSpace(DOF)
     bounds = ob.RealVectorBounds(DOF)
     for i in range(DOF):
         bounds.setLow(i, float(lower[i]))
         bounds.setHigh(i, float(upper[i]))
-    space.setBounds(bounds)
-    setup = og.SimpleSetup(space)
+    ambient.setBounds(bounds)
+    if constraint is None:
+        space = ambient
+        setup = og.SimpleSetup(space)
+    else:
+        ompl_constraint = _OmplConstraint(constraint)
+        space = ob.ProjectedStateSpace(ambient, ompl_constraint)
+        setup = og.SimpleSetup(ob.ConstrainedSpaceInformation(space))
     setup.setStateValidityChecker(
         lambda state: is_free(np.array([state[i] for i in range(DOF)], dtype=float))
     )
@@ -105,14 +153,24 @@ def _ompl_plan(
     endpoints = []
     for q in (start, goal):
         state = space.allocState()
-        for i in range(DOF):
-            state[i] = float(q[i])
+        if constraint is None:
+            for i in range(DOF):
+                state[i] = float(q[i])
+        else:  # constrained states are filled whole (they do not take item assignment)
+            state.copy([float(v) for v in q])
         endpoints.append(state)
     setup.setStartAndGoalStates(endpoints[0], endpoints[1])
     status = setup.solve(time_budget)
     if status.getStatus() != ob.PlannerStatus.EXACT_SOLUTION:
         return None
     path = setup.getSolutionPath()
+    if constraint is not None:
+        # Straight joint segments would leave the manifold: keep the projected states, densely.
+        path.interpolate()
+        return np.array(
+            [[path.getState(k)[i] for i in range(DOF)] for k in range(path.getStateCount())],
+            dtype=float,
+        )
     # Shortcuts with a fixed number of attempts (seeded, so deterministic); simplifyMax also
     # smooths until nothing improves, which cost 1 s of collision checks per path here.
     simplifier = og.PathSimplifier(info)
@@ -133,9 +191,11 @@ def plan_goto(
     time_budget: float = 2.0,
     seed: int = 0,
     resolution: float = 0.01,
+    constraint: JointConstraint | None = None,
 ) -> GoToResult:
     """Plan a collision-free joint path from start to goal within the joint limits: the
-    straight joint-space segment if it is free, else RRTConnect.
+    straight joint-space segment if it is free, else RRTConnect; with a ``constraint``,
+    RRTConnect on its manifold (ProjectedStateSpace) and a densely interpolated path.
 
     ``is_valid(q)`` is True when configuration q is free. The path is simplified and then every
     straight segment is re-checked so that no joint moves more than ``resolution`` rad between
@@ -170,20 +230,28 @@ def plan_goto(
         return result(None, "start configuration is in collision")
     if not is_free(q1):
         return result(None, "goal configuration is in collision")
+    if constraint is not None:
+        for name, q in (("start", q0), ("goal", q1)):
+            if np.max(np.abs(constraint.function(q))) > constraint.tolerance:
+                return result(None, f"{name} configuration violates the constraint")
     # Most transits between actions are free in a straight joint line: try it before OMPL.
     direct = np.stack([q0, q1])
-    if all(is_free(q) for q in interpolate(direct, resolution)[1:-1]):
+    if constraint is None and all(is_free(q) for q in interpolate(direct, resolution)[1:-1]):
         return result(direct, "")
 
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
     try:
         _reseed(seed)
-        path = _ompl_plan(q0, q1, is_free, lo, hi, float(time_budget), resolution)
+        path = _ompl_plan(q0, q1, is_free, lo, hi, float(time_budget), resolution, constraint)
     finally:
         ou.setLogLevel(level)
     if path is None:
         return result(None, f"no path found within {time_budget:g} s")
     if not all(is_free(q) for q in interpolate(path, resolution)):
         return result(None, f"simplified path collides when re-checked at {resolution:g} rad")
+    if constraint is not None:
+        worst = max(float(np.max(np.abs(constraint.function(q)))) for q in path)
+        if worst > constraint.tolerance:
+            return result(None, f"path leaves the constraint by {worst:.2g}")
     return result(path, "")

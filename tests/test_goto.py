@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from clutter_gym.objects import get_object
+from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.herb_model import RIGHT_ARM_HOME
 from clutter_gym.robot.kinematics import ArmKinematics
 from clutter_gym.world import TABLE
 from planners.collision import CollisionChecker, interpolate, make_checker
-from planners.goto import GoToResult, plan_goto
+from planners.direct_grasp import approach_rotation
+from planners.goto import GoToResult, plan_goto, upright_hand
 
 KIN = ArmKinematics("right")
 #: Hand over the table left of the box and right of it: free, but the straight joint-space line
@@ -138,3 +140,45 @@ def test_enclosed_goal_has_no_path() -> None:
     assert result.path is None
     assert result.reason == "no path found within 0.5 s"
     assert result.collision_checks > 2
+
+
+def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
+    """GoTo on the upright-hand manifold (ProjectedStateSpace) around an obstacle that the
+    straight segment would cross: every configuration keeps the finger plane horizontal."""
+    kinematics = ArmKinematics("right")
+    rng = np.random.default_rng(0)
+
+    def at(x: float, y: float, z: float, heading: float) -> np.ndarray:
+        target = np.eye(4)
+        target[:3, :3] = approach_rotation(np.array([np.cos(heading), np.sin(heading), 0.0]))
+        target[:3, 3] = (x, y, z)
+        q = kinematics.solve_ik(target, hm.RIGHT_ARM_HOME, rng)
+        assert q is not None
+        return q
+
+    start, goal = at(0.95, -0.2, 0.90, 0.0), at(0.85, -0.45, 0.95, -0.3)
+
+    def free(q: np.ndarray) -> bool:  # a pillar between the two hand positions
+        x, y, _ = kinematics.fk_tcp(q)[:3, 3]
+        return not (0.86 < x < 0.94 and -0.35 < y < -0.28)
+
+    upright = upright_hand(kinematics)
+    result = plan_goto(
+        start, goal, free, kinematics.lower, kinematics.upper, 5.0, seed=1, constraint=upright
+    )
+    assert result.success, result.reason
+    assert result.path is not None and len(result.path) > 2
+    tilt = [float(np.abs(kinematics.fk_tcp(q)[:2, 0]).max()) for q in result.path]
+    assert max(tilt) < upright.tolerance
+    assert all(free(q) for q in result.path)
+    assert np.allclose(result.path[0], start) and np.allclose(result.path[-1], goal, atol=1e-6)
+
+
+def test_constrained_goto_rejects_endpoints_off_the_manifold() -> None:
+    kinematics = ArmKinematics("right")
+    tilted = np.array(hm.RIGHT_ARM_HOME)
+    result = plan_goto(
+        tilted, tilted + 0.1, lambda q: True, kinematics.lower, kinematics.upper, 1.0,
+        constraint=upright_hand(kinematics),
+    )  # fmt: skip
+    assert not result.success and "violates the constraint" in result.reason

@@ -192,3 +192,41 @@ def test_same_seed_same_plan() -> None:
     beliefs = [belief("can", "soda_can", (0.93, -0.22, 0.0))]
     a, b = plan(beliefs), plan(beliefs)
     assert np.array_equal(plan_rows(a), plan_rows(b))
+
+
+def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None:
+    """When the straight pull into the goal strip is blocked, PickUp carries the object with
+    the constrained GoTo: level hand, object poses following the TCP."""
+    from clutter_gym.world import SHELF
+    from planners.actions import PlanningContext, _carried_poses, _carry
+    from planners.direct_grasp import approach_rotation
+
+    k = ArmKinematics("right")
+    can = belief("can", "soda_can", (1.0, -0.15, 0.0))
+    ctx = PlanningContext(
+        SHELF, {"can": can}, PlannerSettings(goto_budget=5.0), k,
+        RobotCollision(k, ArmGeometry()), SHELF.default_goal_region,
+    )  # fmt: skip
+
+    def pose(x: float, y: float) -> np.ndarray:
+        t = np.eye(4)
+        t[:3, :3] = approach_rotation(np.array([1.0, 0.0, 0.0]))
+        t[:3, 3] = (x, y, SHELF.top_z + 0.095)
+        return t
+
+    q_start = k.solve_ik(pose(1.0, -0.15), hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    assert q_start is not None
+
+    def free(q: np.ndarray) -> bool:  # a post on the straight line back to the strip
+        x, y, _ = k.fk_tcp(q)[:3, 3]
+        return not (0.86 < x < 0.92 and -0.19 < y < -0.11)
+
+    straight = ctx.straight(q_start, pose(0.78, -0.15), free)
+    assert straight is None
+    path = _carry(ctx, q_start, pose(0.78, -0.15), free)
+    assert path is not None and all(free(q) for q in path)
+    assert max(float(np.abs(k.fk_tcp(q)[:2, 0]).max()) for q in path) < 1e-3
+    carried = _carried_poses(ctx, path, can.samples)
+    tcp_end = k.fk_tcp(path[-1])[:3, 3]
+    offset = can.samples[0, :2] - k.fk_tcp(path[0])[:2, 3]
+    assert np.allclose(carried[-1, 0, :2], tcp_end[:2] + offset, atol=0.02)
