@@ -95,7 +95,7 @@ def _panel(
     ax.plot(tcp[:, 1], tcp[:, 0], "k-", lw=1.5, zorder=4)
     ax.plot(tcp[0, 1], tcp[0, 0], "ko", ms=3, zorder=4)
     ax.set_title(f"step {step.depth + 1}: {moved.action} {moved.obj}", fontsize=9)
-    ax.set_xlim(min(y1, 0.35), max(y0, -0.75))  # inverted: the robot's left on the left
+    ax.set_xlim(min(y1, 0.35), max(y0, -0.9))  # inverted: the robot's left on the left
     ax.set_ylim(x0, min(x1, 1.3))
     ax.set_aspect("equal")
     ax.tick_params(labelsize=6)
