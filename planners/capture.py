@@ -468,6 +468,14 @@ def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: Captu
     return json.dumps(spec, sort_keys=True)
 
 
+def cache_name(
+    kind: str, footprint: Footprint, aperture: float, settings: CaptureSettings
+) -> str:
+    """File name of a region in a cache (or in `SHIPPED_DIR`): a hash of every parameter."""
+    digest = hashlib.sha256(_cache_key(kind, footprint, aperture, settings).encode()).hexdigest()
+    return f"{kind}_{footprint.shape}_{digest[:16]}.npz"
+
+
 def _cached(
     kind: str,
     footprint: Footprint,
@@ -482,9 +490,8 @@ def _cached(
     cannot be read or whose key differs is rebuilt and replaced.
     """
     key = _cache_key(kind, footprint, aperture, settings)
-    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    name = f"{kind}_{footprint.shape}_{digest}.npz"
+    name = cache_name(kind, footprint, aperture, settings)
     places = [directory / name] + ([SHIPPED_DIR / name] if cache_dir is None else [])
     for place in places:
         arrays = _load(place, key)

@@ -8,11 +8,20 @@ import numpy as np
 import pytest
 
 from clutter_gym.objects import OBJECTS, Footprint
-from planners.capture import CaptureRegion, CaptureSettings, push_grasp_region, sweep_region
+from planners.capture import (
+    SHIPPED_DIR,
+    CaptureRegion,
+    CaptureSettings,
+    cache_name,
+    push_grasp_apertures,
+    push_grasp_region,
+    sweep_region,
+)
 from planners.hand2d import (
     MAX_APERTURE,
     aperture_for_proximal,
     closure_for_aperture,
+    default_aperture,
     proximal_for_aperture,
 )
 
@@ -142,3 +151,24 @@ def test_bad_queries(can_region: CaptureRegion) -> None:
         can_region.contains(np.zeros((1, 3)), 2.0)
     with pytest.raises(ValueError, match="box_mus"):
         CaptureSettings(box_mus=(0.0,))
+
+
+def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path) -> None:
+    """Every region the planner uses ships with the package under its current key (a change
+    to the simulation or settings would miss it and rebuild for minutes), and a shipped file
+    is what a fresh build gives."""
+    settings = CaptureSettings()
+    for spec in OBJECTS.values():
+        footprint = spec.footprint
+        wanted = [("sweep", MAX_APERTURE)]
+        if spec.graspable:
+            wanted += [("push_grasp", a) for a in push_grasp_apertures(footprint)]
+        for kind, aperture in wanted:
+            assert (SHIPPED_DIR / cache_name(kind, footprint, aperture, settings)).exists(), (
+                f"{spec.kind} {kind} at {aperture}: run python -m planners.capture"
+            )
+    can = OBJECTS["soda_can"].footprint
+    shipped = push_grasp_region(can, default_aperture(can))
+    fresh = push_grasp_region(can, default_aperture(can), cache_dir=tmp_path)
+    assert np.array_equal(shipped.s_req, fresh.s_req)
+    assert np.array_equal(shipped.s_contact, fresh.s_contact)
