@@ -52,7 +52,7 @@ from planners.collision import (
 )
 from planners.direct_grasp import LIFT, approach_rotation, grasp_height
 from planners.frames import Frame2D
-from planners.goto import plan_goto, upright_hand
+from planners.goto import JointConstraint, plan_goto, upright_hand
 from planners.hand2d import closure_for_aperture, push_grasp_profile, sweep_profile
 from planners.uncertainty import ObjectBelief
 
@@ -380,9 +380,18 @@ class PlanningContext:
         self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: Hand
     ) -> tuple[np.ndarray | None, str]:
         """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself)."""
+        return self.plan_path(start, goal, self.free_check(obstacles, hand))
+
+    def plan_path(
+        self,
+        start: np.ndarray,
+        goal: np.ndarray,
+        free: Callable[[np.ndarray], bool],
+        constraint: JointConstraint | None = None,
+    ) -> tuple[np.ndarray | None, str]:
+        """`plan_goto` within this plan's budget and seed: (path or None, reason)."""
         self.check_budget()
         budget = min(self.settings.goto_budget, self.remaining())
-        free = self.free_check(obstacles, hand)
         with self.timed("goto"):
             result = plan_goto(
                 start,
@@ -393,6 +402,7 @@ class PlanningContext:
                 time_budget=max(budget, 1e-3),
                 seed=self.settings.seed,
                 resolution=ARM_CHECK_STEP,
+                constraint=constraint,
             )
         return result.path, result.reason
 
@@ -663,20 +673,8 @@ def _carry(
     q_goal = ctx.solve(target, free)
     if q_goal is None:
         return None
-    ctx.check_budget()
-    with ctx.timed("goto"):
-        result = plan_goto(
-            q_start,
-            q_goal,
-            free,
-            ctx.kinematics.lower,
-            ctx.kinematics.upper,
-            time_budget=max(min(ctx.settings.goto_budget, ctx.remaining()), 1e-3),
-            seed=ctx.settings.seed,
-            resolution=ARM_CHECK_STEP,
-            constraint=upright_hand(ctx.kinematics),
-        )
-    return result.path
+    path, _ = ctx.plan_path(q_start, q_goal, free, upright_hand(ctx.kinematics))
+    return path
 
 
 def _carried_poses(ctx: PlanningContext, path: np.ndarray, in_hand: np.ndarray) -> np.ndarray:

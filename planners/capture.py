@@ -123,6 +123,13 @@ class _Grid:
     theta_period: float  # pi for boxes, 0 for cylinders (theta ignored)
     x_start: float
 
+    @classmethod
+    def of(cls, footprint: Footprint, arrays: dict[str, np.ndarray]) -> _Grid:
+        """The grid of built region arrays (boxes repeat every pi in theta)."""
+        ys = arrays["ys"]
+        period = np.pi if footprint.shape == "box" else 0.0
+        return cls(float(ys[0]), float(ys[1] - ys[0]), period, float(arrays["x_start"]))
+
     def cells(self, poses: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, ...]:
         """Flat indices (N, 4) of the nodes around each pose, and whether the cell exists."""
         ny, nt = shape
@@ -533,14 +540,12 @@ def push_grasp_region(
         cache_dir,
         lambda: _build_push_grasp(footprint, hand, settings),
     )
-    ys = arrays["ys"]
-    period = np.pi if footprint.shape == "box" else 0.0
     mus, cs = parameter_sets(footprint, settings)
     return CaptureRegion(
         footprint,
         aperture,
         settings.d_max,
-        _Grid(float(ys[0]), float(ys[1] - ys[0]), period, float(arrays["x_start"])),
+        _Grid.of(footprint, arrays),
         arrays["s_req"],
         arrays["s_contact"],
         hand.grasp_line,
@@ -573,14 +578,12 @@ def sweep_region(
         cache_dir,
         lambda: _build_sweep(footprint, hand, settings),
     )
-    ys = arrays["ys"]
-    period = np.pi if footprint.shape == "box" else 0.0
     mus, cs = parameter_sets(footprint, settings)
     return SweepRegion(
         footprint,
         aperture,
         settings.d_max,
-        _Grid(float(ys[0]), float(ys[1] - ys[0]), period, float(arrays["x_start"])),
+        _Grid.of(footprint, arrays),
         arrays["s_contact"],
         arrays["s_escape"],
         hand.span,
