@@ -172,7 +172,12 @@ class AwayFrom:
         if not near.any():
             return True
         spec = ctx.beliefs[name].spec
-        return not Volume.of_object(name, spec, final[near], ctx.surface.top_z).intersects(self.ngr)
+        placed = Volume.of_object(name, spec, final[near], ctx.surface.top_z)
+        # The hull of the poses near the NGR contains them all: clear hull, clear poses. One
+        # convex shape is far cheaper for the broad phase than a hundred overlapping boxes.
+        if not placed.hulled().intersects(self.ngr):
+            return True
+        return not placed.intersects(self.ngr)
 
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         """A quick sufficient test: stable, and every pose's bounding square clears the NGR
