@@ -791,30 +791,34 @@ def _sweep_at(
     if guess is None:
         ctx.fail(name, "sweep", f"no sweep up to {ctx.settings.sweep_max} m ends {goal.describe()}")
         return None
+    hand: Hand = (0.0, closure_for_aperture(region.aperture))
+    free = ctx.free_check(avoid, hand)
     placement = None
-    with ctx.timed("capture"):
-        for fraction in SWEEP_PLACEMENTS:
-            y0 = local[:, 1].mean() - (lo + fraction * (hi - lo))
-            origin = Frame2D(centre, angle, handedness).to_world(np.array([x0, y0, 0.0]))
-            frame = Frame2D((float(origin[0]), float(origin[1])), angle, handedness)
-            in_frame = frame.to_frame(belief.samples)
-            if region.query(in_frame, float(guess))[0].all():
-                placement = frame, in_frame
-                break
+    for fraction in SWEEP_PLACEMENTS:
+        y0 = local[:, 1].mean() - (lo + fraction * (hi - lo))
+        origin = Frame2D(centre, angle, handedness).to_world(np.array([x0, y0, 0.0]))
+        frame = Frame2D((float(origin[0]), float(origin[1])), angle, handedness)
+        in_frame = frame.to_frame(belief.samples)
+        with ctx.timed("capture"):
+            captured = bool(region.query(in_frame, float(guess))[0].all())
+        if not captured:
+            ctx.fail(name, "sweep", "the sweep capture region misses some uncertainty samples")
+            continue
+        start_xy = np.asarray(frame.origin)
+        # Reachable and clear where it starts and where the guess ends, before paying for
+        # the simulated evolution; another placement along the hand may clear what this hits.
+        if ctx.solve(ctx.tcp_pose(start_xy, approach, z), free) is None:
+            ctx.fail(name, "sweep", "no collision-free IK solution at the start of the sweep")
+            continue
+        if ctx.solve(ctx.tcp_pose(start_xy + guess * frame.x_axis, approach, z), free) is None:
+            ctx.fail(name, "sweep", "no collision-free IK solution at the end of the sweep")
+            continue
+        placement = frame, in_frame
+        break
     if placement is None:
-        ctx.fail(name, "sweep", "the sweep capture region misses some uncertainty samples")
         return None
     frame, in_frame = placement
     start_xy = np.asarray(frame.origin)
-    hand: Hand = (0.0, closure_for_aperture(region.aperture))
-    free = ctx.free_check(avoid, hand)
-    if ctx.solve(ctx.tcp_pose(start_xy, approach, z), free) is None:
-        ctx.fail(name, "sweep", "no collision-free IK solution at the start of the sweep")
-        return None
-    # Reachability where the guess ends, before paying for the simulated evolution.
-    if ctx.solve(ctx.tcp_pose(start_xy + guess * frame.x_axis, approach, z), free) is None:
-        ctx.fail(name, "sweep", "no collision-free IK solution at the end of the sweep")
-        return None
     with ctx.timed("nu"):
         # A pilot with the detected pose alone (a thirtieth of the work) says whether and
         # roughly where the sweep reaches G; only then are all samples simulated.
