@@ -15,7 +15,6 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import fcl
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
@@ -26,31 +25,19 @@ from agents.capture_figure import draw_outline
 from clutter_gym.files import atomic_write_bytes
 from clutter_gym.robot.kinematics import ArmKinematics
 from clutter_gym.world import Surface
-from planners.collision import Volume
+from planners.collision import Volume, part_points
 from planners.rearrange import Plan
 from planners.uncertainty import ObjectBelief
 
 NGR_HEIGHT = 0.35  # m above the surface: parts of the NGR above every object are not drawn
 
 
-def _corners(geometry: fcl.CollisionGeometry) -> np.ndarray:
-    """Corners of the geometry's local bounding box (8, 3)."""
-    if isinstance(geometry, fcl.Box):
-        h = np.asarray(geometry.side) / 2
-    elif isinstance(geometry, fcl.Cylinder):
-        h = np.array([geometry.radius, geometry.radius, geometry.lz / 2])
-    else:
-        h = np.full(3, geometry.radius)
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    return signs * h
-
-
 def volume_outlines(volume: Volume, surface_z: float) -> list[np.ndarray]:
-    """Top-view outlines (convex hulls of bounding boxes) of a volume's parts below
-    ``NGR_HEIGHT`` above the surface."""
+    """Top-view outlines (convex hulls of the hull points of `collision.part_points`) of a
+    volume's parts below ``NGR_HEIGHT`` above the surface."""
     outlines = []
     for obj, geometry, _ in volume.parts:
-        corners = _corners(geometry) @ obj.getRotation().T + obj.getTranslation()
+        corners = part_points(obj, geometry)
         if corners[:, 2].min() > surface_z + NGR_HEIGHT:
             continue
         xy = corners[:, :2]

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from functools import cache
 from typing import Protocol
@@ -305,9 +305,10 @@ class PlanningContext:
             self._volumes[name] = Volume.of_object(name, b.spec, b.samples, self.surface.top_z)
         return self._volumes[name]
 
-    def objects_volume(self, names: object) -> Volume:
+    def objects_volume(self, names: Iterable[str]) -> Volume:
+        """Sum of Volume(i, U(i)) over the named objects (the avoid volume)."""
         total = Volume()
-        for name in sorted(names):  # type: ignore[call-overload]
+        for name in sorted(names):
             total += self.uncertainty_volume(name)
         return total
 

@@ -475,9 +475,7 @@ def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: Captu
     return json.dumps(spec, sort_keys=True)
 
 
-def cache_name(
-    kind: str, footprint: Footprint, aperture: float, settings: CaptureSettings
-) -> str:
+def cache_name(kind: str, footprint: Footprint, aperture: float, settings: CaptureSettings) -> str:
     """File name of a region in a cache (or in `SHIPPED_DIR`): a hash of every parameter."""
     digest = hashlib.sha256(_cache_key(kind, footprint, aperture, settings).encode()).hexdigest()
     return f"{kind}_{footprint.shape}_{digest[:16]}.npz"

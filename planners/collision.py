@@ -170,7 +170,7 @@ class Volume:
             parts: list[Part] = []
             for label in sorted(self.labels):
                 points = np.vstack(
-                    [_part_points(obj, g) for obj, g, owner in self.parts if owner == label]
+                    [part_points(obj, g) for obj, g, owner in self.parts if owner == label]
                 )
                 hull = trimesh.convex.convex_hull(points)
                 faces = np.hstack([np.full((len(hull.faces), 1), 3), hull.faces]).ravel()
@@ -202,7 +202,16 @@ class Volume:
 _HULL_SIDES = 16
 
 
-def _part_points(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
+def _half_extents(geometry: fcl.CollisionGeometry) -> np.ndarray:
+    """Half sizes (3,) of a box, cylinder or sphere's local bounding box."""
+    if isinstance(geometry, fcl.Box):
+        return np.asarray(geometry.side, dtype=float) / 2
+    if isinstance(geometry, fcl.Cylinder):
+        return np.array([geometry.radius, geometry.radius, geometry.lz / 2])
+    return np.full(3, float(geometry.radius))
+
+
+def part_points(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
     """World points whose convex hull contains a placed box, cylinder or sphere."""
     if isinstance(geometry, fcl.Cylinder):
         # A polygon circumscribing the circle, so the hull contains the cylinder.
@@ -212,25 +221,14 @@ def _part_points(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> n
         h = geometry.lz / 2
         local = np.vstack([np.c_[ring, np.full(len(ring), -h)], np.c_[ring, np.full(len(ring), h)]])
     else:
-        half = (
-            np.asarray(geometry.side, dtype=float) / 2
-            if isinstance(geometry, fcl.Box)
-            else np.full(3, float(geometry.radius))
-        )
         signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-        local = signs * half
+        local = signs * _half_extents(geometry)
     return local @ np.asarray(obj.getRotation()).T + np.asarray(obj.getTranslation())
 
 
 def part_bounds(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
     """World axis-aligned bounds (2, 3) of a placed box, cylinder or sphere."""
-    if isinstance(geometry, fcl.Box):
-        half = np.asarray(geometry.side, dtype=float) / 2
-    elif isinstance(geometry, fcl.Cylinder):
-        half = np.array([geometry.radius, geometry.radius, geometry.lz / 2])
-    else:
-        half = np.full(3, float(geometry.radius))
-    extent = np.abs(np.asarray(obj.getRotation())) @ half
+    extent = np.abs(np.asarray(obj.getRotation())) @ _half_extents(geometry)
     centre = np.asarray(obj.getTranslation(), dtype=float)
     return np.stack([centre - extent, centre + extent])
 
