@@ -26,7 +26,6 @@ import numpy as np
 from tqdm import tqdm
 
 from agents.plan_figure import write_timeline
-from agents.rearrange_policy import check_planner
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_gif, write_json
 from clutter_gym.objects import get_object
@@ -35,7 +34,7 @@ from clutter_gym.robot import herb_model as hm
 from clutter_gym.scene import Scene, load_scene, resolve_noise, scene_to_dict
 from clutter_gym.world import get_surface
 from planners.actions import PlannerSettings
-from planners.rearrange import Plan, chunk_rows, plan_retrieval
+from planners.rearrange import Plan, chunk_rows, plan_retrieval, planner_kind
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
 
 WAYPOINTS = 16
@@ -110,7 +109,7 @@ def plan_from_detection(
         np.asarray(hm.RIGHT_ARM_HOME),
         settings,
         scene.goal.region,
-        check_planner(planner),
+        planner,
     )
     return plan, beliefs
 
@@ -194,7 +193,7 @@ def run_plan(
 ) -> dict[str, Any]:
     """Plan for a scene from one detection; execute the plan on ``trials`` true worlds.
     ``noise`` (a level name or "xy,theta") replaces the scene's noise."""
-    check_planner(planner)
+    planner_kind(planner)
     if trials < 0:
         raise ValueError(f"trials: {trials}; must be >= 0")
     if samples is not None and samples < 1:

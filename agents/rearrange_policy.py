@@ -18,20 +18,8 @@ from clutter_gym.objects import get_object
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.world import SURFACES, Surface
 from planners.actions import PlannerSettings
-from planners.rearrange import Plan, chunk_rows, plan_retrieval
+from planners.rearrange import Plan, chunk_rows, plan_retrieval, planner_kind
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
-
-PLANNERS: dict[str, tuple[str, ...]] = {"pushing": ("push-grasp", "sweep")}
-"""Planner name -> the manipulation actions its library holds."""
-
-
-def check_planner(name: str) -> tuple[str, ...]:
-    try:
-        return PLANNERS[name]
-    except KeyError:
-        raise ValueError(
-            f"planner: {name!r} is unknown; allowed: {', '.join(sorted(PLANNERS))}"
-        ) from None
 
 
 def beliefs_from_detection(
@@ -79,7 +67,8 @@ class RearrangePolicy:
         seed: int = 0,
     ) -> None:
         self.waypoints = waypoints
-        self.actions = check_planner(planner)
+        planner_kind(planner)  # fail now on an unknown name, not at the first observation
+        self.planner = planner
         self.settings = settings or PlannerSettings(seed=seed)
         self.samples = samples
         self.closed_loop = closed_loop
@@ -127,7 +116,7 @@ class RearrangePolicy:
             np.asarray(obs["arm_joints"], dtype=float),
             self.settings,
             region,
-            self.actions,
+            self.planner,
         )
         self.plans.append(plan)
         if not plan.success:

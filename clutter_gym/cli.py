@@ -6,6 +6,9 @@ clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
 clutter-gym bench env|capture|plan --json out.json
+clutter-gym benchmark --suite table1|fig15 [--planners tsr,pg,pushing,pick-and-place]
+    --json out.json [--md out.md] [--plots dir] [--trials 10] [--workers 2] [--backend local|ray]
+clutter-gym benchmark-plots --json out.json --out dir
 """
 
 from __future__ import annotations
@@ -67,6 +70,40 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         for line in report["blocked_by"][:8]:
             print(f"  blocked by: {line}", file=sys.stderr)
     return 0 if report["success"] else 1
+
+
+def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from agents.benchmark import run_benchmark
+
+    report = run_benchmark(
+        args.suite,
+        planners=args.planners,
+        out=Path(args.json),
+        markdown=Path(args.md) if args.md else None,
+        trials=args.trials,
+        seed=args.seed,
+        time_budget=args.budget,
+        workers=args.workers,
+        backend=args.backend,
+        scenes_per_group=args.scenes_per_group,
+        plots=Path(args.plots) if args.plots else None,
+    )
+    for planner, groups in report["summary"].items():
+        for group, noises in groups.items():
+            for noise, cell in noises.items():
+                print(json.dumps({"planner": planner, "group": group, "noise": noise, **cell}))
+    written = [args.json, args.md, *report.get("plots", [])]
+    print(f"wrote {', '.join(str(w) for w in written if w)}", file=sys.stderr)
+    return 0
+
+
+def _cmd_benchmark_plots(args: argparse.Namespace) -> int:
+    from agents.benchmark_plots import write_plots
+
+    report = json.loads(Path(args.json).read_text())
+    for path in write_plots(report, Path(args.out)):
+        print(f"wrote {path}")
+    return 0
 
 
 def _cmd_scene(args: argparse.Namespace) -> int:
@@ -178,6 +215,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     plan.add_argument("--workers", type=int, default=2)
     plan.set_defaults(func=_cmd_plan)
+
+    benchmark = sub.add_parser(
+        "benchmark", help="the paper's experiments (Table 1, pushing vs pick-and-place)"
+    )
+    benchmark.add_argument("--suite", required=True, help="table1 or fig15")
+    benchmark.add_argument(
+        "--planners",
+        default=None,
+        help="comma-separated: tsr, pg, pushing, pick-and-place (default: the suite's)",
+    )
+    benchmark.add_argument("--json", required=True, help="report; jobs log beside it")
+    benchmark.add_argument("--md", default=None, help="write the table as Markdown")
+    benchmark.add_argument("--plots", default=None, help="write PNG plots to this directory")
+    benchmark.add_argument("--trials", type=int, default=10, help="true worlds per plan")
+    benchmark.add_argument("--seed", type=int, default=0)
+    benchmark.add_argument("--budget", type=float, default=20.0, help="planning budget [s]")
+    benchmark.add_argument("--workers", type=int, default=2)
+    benchmark.add_argument("--backend", default="local", help="local (process pool) or ray")
+    benchmark.add_argument(
+        "--scenes-per-group", type=int, default=None, help="only the first N scenes per level"
+    )
+    benchmark.set_defaults(func=_cmd_benchmark)
+
+    plots = sub.add_parser("benchmark-plots", help="PNG plots from a benchmark JSON")
+    plots.add_argument("--json", required=True)
+    plots.add_argument("--out", required=True, help="directory")
+    plots.set_defaults(func=_cmd_benchmark_plots)
 
     scene = sub.add_parser("scene", help="generate a scene at one of the paper's clutter levels")
     scene.add_argument("--level", choices=LEVELS, required=True)

@@ -30,7 +30,7 @@ from typing import Protocol
 import fcl
 import numpy as np
 
-from clutter_gym.objects import Footprint
+from clutter_gym.objects import Footprint, ObjectSpec
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.geometry import Hand
 from clutter_gym.robot.kinematics import ArmKinematics
@@ -53,7 +53,13 @@ from planners.collision import (
 from planners.direct_grasp import LIFT, approach_rotation, grasp_height
 from planners.frames import Frame2D
 from planners.goto import JointConstraint, plan_goto, upright_hand
-from planners.hand2d import closure_for_aperture, push_grasp_profile, sweep_profile
+from planners.hand2d import (
+    PushGraspProfile,
+    closure_for_aperture,
+    push_grasp_profile,
+    sweep_profile,
+)
+from planners.tsr import GraspTSR, grasps_every_sample
 from planners.uncertainty import ObjectBelief
 
 GRASP_CLOSURE = 1.0
@@ -65,6 +71,12 @@ RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 RISE = 0.10  # m the hand rises after releasing an obstacle
 HAND_BELOW_TCP = hm.HAND_PALM_RADIUS  # m: a horizontal hand's lowest point under its TCP
 RISE_CLEARANCE = 0.03  # m between the risen hand and the top of the object it released
+CARRY_LIFT = 0.15  # m: pick-and-place carries the object this far above where it stood
+PLACEMENT_SPACING = 0.05  # m between candidate placements and between carried-volume poses
+PLACEMENT_TRIES = 6  # placements in G tried per grasp, nearest first
+TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
+TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
+TSR_IK_TRIES = 8  # static-grasp poses tried with IK and motions per aperture
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 ARM_CHECK_STEP = 0.02  # rad between collision-checked configurations along a motion
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
@@ -135,6 +147,7 @@ class ActionResult:
     nu: np.ndarray  # (stages, M, 3) world poses of the samples; nu[0] = U(o), nu[-1] the end
     held: bool  # the object ends in the closed hand
     details: dict[str, float]
+    carried: Volume = field(default_factory=Volume)  # a held object on its way (pick-and-place)
 
 
 # --------------------------------------------------------------------------------------------
@@ -570,7 +583,6 @@ def _push_grasp_at(
     spec = belief.spec
     region = ctx.push_region(spec.footprint, aperture)
     profile = push_grasp_profile(aperture)
-    z = ctx.surface.top_z + grasp_height(spec.height)
     v = np.array([math.cos(heading), math.sin(heading)])
     normal = np.array([-v[1], v[0]])
     centre = belief.samples[0, :2] + offset * normal
@@ -586,12 +598,50 @@ def _push_grasp_at(
         ctx.fail(name, action, "the capture region misses some uncertainty samples")
         return _Uncaptured()
     distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
+
+    def evolve() -> np.ndarray:
+        stages = max(1, math.ceil(distance / NU_SPACING))
+        with ctx.timed("nu"):
+            advances = np.linspace(0.0, distance, stages + 1)
+            chosen = extreme_parameters(region.mus, region.cs)
+            nu_hand = region.evolve(in_hand, distance, stages, NU_STEP, chosen)
+            return _to_world(frame, nu_hand, advances)
+
+    details = {
+        "heading_deg": math.degrees(heading),
+        "aperture_m": aperture,
+        "offset_m": offset,
+        "push_m": distance,
+    }
     end_xy = start_xy + distance * v
+    line = (start_xy, end_xy)
+    return _hand_in(ctx, name, goal, avoid, action, line, heading, profile, evolve, details)
+
+
+def _hand_in(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    line: tuple[np.ndarray, np.ndarray],
+    heading: float,
+    profile: PushGraspProfile,
+    evolve: Callable[[], np.ndarray],
+    details: dict[str, float],
+) -> ActionResult | None:
+    """The hand moves straight in at grasp height from ``line[0]`` to ``line[1]`` (hand_base
+    positions) while the object's samples go through ``evolve()`` (nu_o, computed only once
+    the arm's motion is known to be feasible); then PickUp (the goal), release
+    (a pushed obstacle) or pick-and-place (a grasped obstacle)."""
+    spec = ctx.beliefs[name].spec
+    start_xy, end_xy = line
+    z = ctx.surface.top_z + grasp_height(spec.height)
     hand: Hand = (0.0, profile.closure)
     free = ctx.free_check(avoid, hand)
     q_end = ctx.solve(ctx.tcp_pose(end_xy, heading, z), free)
     if q_end is None:
-        ctx.fail(name, action, "no collision-free IK solution at the end of the push")
+        ctx.fail(name, action, "no collision-free IK solution where the hand stops")
         return None
     back = ctx.straight(q_end, ctx.tcp_pose(start_xy, heading, z), free)
     if back is None:
@@ -601,30 +651,27 @@ def _push_grasp_at(
     if not ctx.motion_free((push,), avoid):
         ctx.fail(name, action, "the arm hits avoidVol during the push")
         return None
-    stages = max(1, math.ceil(distance / NU_SPACING))
-    with ctx.timed("nu"):
-        advances = np.linspace(0.0, distance, stages + 1)
-        chosen = extreme_parameters(region.mus, region.cs)
-        nu = _to_world(frame, region.evolve(in_hand, distance, stages, NU_STEP, chosen), advances)
+    nu = evolve()
     if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
         ctx.fail(name, action, "the object's uncertainty sweeps into avoidVol")
         return None
+    if action == "pick-and-place":
+        placed = _pick_and_place(ctx, name, goal, q_end, end_xy, heading, z, nu[-1], avoid)
+        if placed is None:
+            return None
+        segments, final, carried = placed
+        nu = np.stack([nu[0], final])
+        return ActionResult(action, name, Motion((push, *segments)), nu, False, details, carried)
     held = action == "pickup"
     if not goal.accepts(ctx, name, nu[-1], held):
         ctx.fail(name, action, f"the object does not end {goal.describe()}")
         return None
-    details = {
-        "heading_deg": math.degrees(heading),
-        "aperture_m": aperture,
-        "offset_m": offset,
-        "push_m": distance,
-    }
     if held:
-        finish, carried = _retrieve(ctx, q_end, end_xy, heading, z, nu[-1], avoid)
+        finish, carried_poses = _retrieve(ctx, q_end, end_xy, heading, z, nu[-1], avoid)
         if finish is None:
             ctx.fail(name, action, "no collision-free lift or pull out after the grasp")
             return None
-        nu = np.concatenate([nu, carried])
+        nu = np.concatenate([nu, carried_poses])
     else:
         finish = _release(ctx, name, q_end, end_xy, heading, z, nu[-1], avoid)
         if finish is None:
@@ -729,6 +776,181 @@ def _release(
     if rise is None:
         return None
     return (release, Segment("retreat", retreat, opened), Segment("rise", rise, opened))
+
+
+# --------------------------------------------------------------------------------------------
+# Static grasp (the uncertainty TSR planner's PickUp) and pick-and-place
+# --------------------------------------------------------------------------------------------
+def static_grasp(
+    ctx: PlanningContext, name: str, goal: Goal, avoid: Volume
+) -> Iterator[ActionResult]:
+    """Direct grasps without pushing: hand poses drawn from the object's TSR that grasp every
+    uncertainty sample as it stands. PickUp for the goal object; an obstacle is picked up,
+    carried out of the NGR and put down (pick-and-place, §3.2.1)."""
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    action = "pickup" if isinstance(goal, Retrieve) else "pick-and-place"
+    if not spec.graspable:
+        ctx.fail(name, action, "wider than the hand can hold")
+        return
+    if not spec.liftable:
+        ctx.fail(name, action, "too heavy to lift")
+        return
+    centre = belief.samples[0, :2]
+    base = _base_heading(ctx, centre)
+    limit = math.radians(ctx.settings.max_heading_deg)
+    found: list[float] = []
+    for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
+        ctx.check_budget()
+        region = ctx.push_region(spec.footprint, aperture)
+        profile = push_grasp_profile(aperture)
+        tsr = GraspTSR(
+            (float(centre[0]), float(centre[1])),
+            (base - limit, base + limit),
+            (-profile.half_gap, profile.half_gap),
+            (profile.grasp_line - TSR_DEPTH, profile.grasp_line),
+        )
+        draws = tsr.sample(ctx.rng, TSR_DRAWS)
+        with ctx.timed("capture"):
+            draws = draws[grasps_every_sample(region, tsr, draws, belief.samples)]
+        if not len(draws):
+            ctx.fail(name, action, "no hand pose in the TSR grasps every uncertainty sample")
+            continue
+        # §2.2.6's order of the push directions (objects hit on the way in first), then the
+        # most centred between the fingers.
+        ranked = np.array(_push_headings(ctx, name, profile.pusher.bounds[3]))
+        rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
+        draws = draws[np.lexsort((np.abs(draws[:, 1]), rank))]
+        tried = 0
+        for heading, lateral, depth in draws:
+            if tried >= TSR_IK_TRIES:
+                break
+            if any(abs(heading - h) < math.radians(ctx.settings.heading_step_deg) for h in found):
+                continue  # a candidate from nearly the same direction fails the same way
+            ctx.check_budget()
+            ctx.stats.actions_tried += 1
+            tried += 1
+            frame = tsr.hand_frame(heading, lateral, depth)
+            end_xy = np.asarray(frame.origin)
+            back = (
+                profile.pusher.bounds[1]
+                + START_CLEARANCE
+                - _near_edge(spec.footprint, frame.to_frame(belief.samples))
+            )
+            start_xy = end_xy - max(back, START_CLEARANCE) * frame.x_axis
+            details = {
+                "heading_deg": math.degrees(heading),
+                "aperture_m": aperture,
+                "lateral_m": lateral,
+                "depth_m": depth,
+            }
+
+            def still() -> np.ndarray:
+                return np.stack([belief.samples, belief.samples])
+
+            result = _hand_in(
+                ctx,
+                name,
+                goal,
+                avoid,
+                action,
+                (start_xy, end_xy),
+                heading,
+                profile,
+                still,
+                details,
+            )
+            if result is None:
+                continue
+            yield result
+            found.append(float(heading))
+            if len(found) >= ctx.settings.candidates_per_action:
+                return
+
+
+def _pick_and_place(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    q_grasp: np.ndarray,
+    grasp_xy: np.ndarray,
+    heading: float,
+    z: float,
+    in_hand: np.ndarray,
+    avoid: Volume,
+) -> tuple[tuple[Segment, ...], np.ndarray, Volume] | None:
+    """Close, lift CARRY_LIFT, carry level to a placement in G, lower, open and back away.
+    Returns the segments, the placed samples and the carried object's volume on the way."""
+    spec = ctx.beliefs[name].spec
+    closed: Hand = (0.0, GRASP_CLOSURE)
+    free = ctx.free_check(avoid, closed)
+    lifted = ctx.straight(q_grasp, ctx.tcp_pose(grasp_xy, heading, z + CARRY_LIFT), free)
+    if lifted is None:
+        ctx.fail(name, "pick-and-place", "no collision-free lift after the grasp")
+        return None
+    others = ctx.objects_volume(set(ctx.beliefs) - {name})
+    tried = 0
+    for shift in _placements(ctx, in_hand[0, :2]):
+        placed = _translated(in_hand, shift)
+        if not goal.accepts(ctx, name, placed, False):
+            continue
+        if Volume.of_object(name, spec, placed, ctx.surface.top_z).intersects(others):
+            continue
+        tried += 1
+        if tried > PLACEMENT_TRIES:
+            break
+        ctx.check_budget()
+        place_xy = grasp_xy + shift
+        carry = ctx.straight(lifted[-1], ctx.tcp_pose(place_xy, heading, z + CARRY_LIFT), free)
+        if carry is None:
+            continue
+        lower = ctx.straight(carry[-1], ctx.tcp_pose(place_xy, heading, z), free)
+        if lower is None:
+            continue
+        carried = _carried_volume(ctx, name, in_hand, shift)
+        if carried.intersects(avoid):
+            continue
+        finish = _release(ctx, name, lower[-1], place_xy, heading, z, placed, avoid)
+        if finish is None:
+            continue
+        segments = (
+            Segment("close", q_grasp[None].copy(), closed),
+            Segment("lift", lifted, closed),
+            Segment("carry", carry, closed),
+            Segment("lower", lower, closed),
+            *finish,
+        )
+        return segments, placed, carried
+    ctx.fail(name, "pick-and-place", "no reachable placement out of the NGR")
+    return None
+
+
+def _placements(ctx: PlanningContext, centre: np.ndarray) -> list[np.ndarray]:
+    """Shifts from ``centre`` to points of a PLACEMENT_SPACING grid over the surface, nearest
+    first (a short carry is a short, reachable motion)."""
+    x0, x1, y0, y1 = ctx.surface.bounds
+    xs = np.arange(x0, x1, PLACEMENT_SPACING) + PLACEMENT_SPACING / 2
+    ys = np.arange(y0, y1, PLACEMENT_SPACING) + PLACEMENT_SPACING / 2
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2) - centre
+    order = np.argsort(np.linalg.norm(grid, axis=1), kind="stable")
+    return [grid[i] for i in order if np.linalg.norm(grid[i]) > PLACEMENT_SPACING / 2]
+
+
+def _carried_volume(
+    ctx: PlanningContext, name: str, in_hand: np.ndarray, shift: np.ndarray
+) -> Volume:
+    """The held object's samples raised over the pick-up spot, carried level at CARRY_LIFT
+    and lowered over the placement, every PLACEMENT_SPACING."""
+    spec = ctx.beliefs[name].spec
+    top = ctx.surface.top_z
+    total = Volume()
+    for z in np.arange(spec.height, CARRY_LIFT + 1e-9, spec.height):
+        for poses in (in_hand, _translated(in_hand, shift)):
+            total += Volume.of_object(name, spec, poses, top + float(z))
+    steps = max(2, math.ceil(float(np.linalg.norm(shift)) / PLACEMENT_SPACING) + 1)
+    for f in np.linspace(0.0, 1.0, steps):
+        total += Volume.of_object(name, spec, _translated(in_hand, f * shift), top + CARRY_LIFT)
+    return total
 
 
 # --------------------------------------------------------------------------------------------
@@ -977,5 +1199,13 @@ def _sweep_until(
 ACTIONS: dict[str, Callable[[PlanningContext, str, Goal, Volume], Iterator[ActionResult]]] = {
     "push-grasp": push_grasp,
     "sweep": sweep,
+    "static-grasp": static_grasp,
 }
 """The manipulation actions Rearrange searches, in the order it tries them."""
+
+CAN_MOVE: dict[str, Callable[[ObjectSpec], bool]] = {
+    "push-grasp": lambda spec: spec.pushable and spec.graspable,
+    "sweep": lambda spec: spec.pushable,
+    "static-grasp": lambda spec: spec.graspable and spec.liftable,
+}
+"""Which objects an action can move at all: the others are obstacles every motion avoids."""

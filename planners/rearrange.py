@@ -27,6 +27,7 @@ from clutter_gym.robot.kinematics import ArmKinematics
 from clutter_gym.world import Surface
 from planners.actions import (
     ACTIONS,
+    CAN_MOVE,
     ActionResult,
     AwayFrom,
     BudgetExceeded,
@@ -41,6 +42,42 @@ from planners.collision import RobotCollision, Volume
 from planners.uncertainty import ObjectBelief
 
 Region = tuple[tuple[float, float], tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class PlannerKind:
+    """A planner of the paper's experiments: Rearrange with an action library, and whether it
+    may move other objects (Table 1's grasp planners may not)."""
+
+    actions: tuple[str, ...]
+    moves_obstacles: bool
+    description: str
+
+
+PLANNERS: dict[str, PlannerKind] = {
+    "pushing": PlannerKind(
+        ("push-grasp", "sweep"), True, "Rearrange with push-grasp, sweep and GoTo (the paper's)"
+    ),
+    "pick-and-place": PlannerKind(
+        ("static-grasp",), True, "Rearrange with PickUp as a direct grasp and GoTo (§3.2.1)"
+    ),
+    "pg": PlannerKind(
+        ("push-grasp",), False, "a push-grasp of the goal among fixed obstacles (Table 1 PG)"
+    ),
+    "tsr": PlannerKind(
+        ("static-grasp",),
+        False,
+        "uncertainty TSR: a static hand pose that grasps every sample (Table 1 TSR)",
+    ),
+}
+
+
+def planner_kind(name: str) -> PlannerKind:
+    """The named planner; ValueError listing the valid names otherwise."""
+    try:
+        return PLANNERS[name]
+    except KeyError:
+        raise ValueError(f"planner: {name!r} is unknown; allowed: {', '.join(PLANNERS)}") from None
 
 
 @dataclass(frozen=True)
@@ -106,23 +143,22 @@ def plan_retrieval(
     start_arm: np.ndarray,
     settings: PlannerSettings | None = None,
     goal_region: Region | None = None,
-    actions: tuple[str, ...] = ("push-grasp", "sweep"),
+    planner: str = "pushing",
 ) -> Plan:
-    """Plan to retrieve ``goal``: Rearrange(goal, {in hand}, {}, {}, {}, *).
+    """Plan to retrieve ``goal`` with the named planner (`PLANNERS`):
+    Rearrange(goal, {in hand}, {}, {}, {}, *).
 
-    Bad input (no objects, an unknown goal or action, a start outside the joint limits) raises
+    Bad input (no objects, an unknown goal or planner, a start outside the joint limits) raises
     ValueError naming the field; a request that simply has no plan returns ``success=False``
     with the reason and what blocked it.
     """
     settings = settings or PlannerSettings()
+    kind = planner_kind(planner)
     names = [b.name for b in beliefs]
     if not beliefs:
         raise ValueError("objects: the scene is empty; there is nothing to retrieve")
     if goal not in names:
         raise ValueError(f"goal: {goal!r} is not in the scene; objects: {', '.join(names)}")
-    unknown = [a for a in actions if a not in ACTIONS]
-    if unknown:
-        raise ValueError(f"actions: unknown {unknown}; allowed: {', '.join(ACTIONS)}")
     kinematics = ArmKinematics("right")
     q0 = np.asarray(start_arm, dtype=float)
     if q0.shape != (7,) or not np.all(np.isfinite(q0)):
@@ -138,12 +174,26 @@ def plan_retrieval(
         goal_region or surface.default_goal_region,
     )
     began = time.perf_counter()
-    search = _Search(ctx, np.clip(q0, kinematics.lower, kinematics.upper), actions)
+    search = _Search(ctx, np.clip(q0, kinematics.lower, kinematics.upper), kind.actions)
     reason = ""
     try:
-        # Objects no action can move stably are avoided by every motion from the start.
-        fixed = tuple(sorted(b.name for b in beliefs if not b.spec.pushable and b.name != goal))
-        steps = search.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
+        # Objects the planner may not or cannot move are avoided by every motion.
+        fixed = tuple(
+            sorted(
+                b.name
+                for b in beliefs
+                if b.name != goal
+                and not (kind.moves_obstacles and any(CAN_MOVE[a](b.spec) for a in kind.actions))
+            )
+        )
+        others = tuple(sorted(set(names) - {goal}))
+        steps = None
+        if fixed != others:
+            # A plan that moves nothing first (§2.2.6: short plans): the action generators
+            # stop after a few candidates, and the first few may all need objects moved.
+            steps = search.rearrange(goal, Retrieve(), Volume(), (), others, None, 0)
+        if steps is None:
+            steps = search.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
         if steps is None:
             reason = "no plan: every action for the goal object failed (see blocked_by)"
     except BudgetExceeded:
@@ -202,8 +252,10 @@ class _Search:
                     continue
                 tau = result.motion if transit is None else result.motion + transit
                 with ctx.timed("volumes"):
-                    vol = tau.volume(ctx.robot) + Volume.of_object(
-                        o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z
+                    vol = (
+                        tau.volume(ctx.robot)
+                        + Volume.of_object(o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z)
+                        + result.carried
                     )
                     others = sorted(set(ctx.beliefs) - {o} - set(avoid))
                     penetrated = vol.penetrated(ctx.objects_volume(others))

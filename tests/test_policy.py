@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import clutter_gym  # noqa: F401  (registers the env)
-from agents.rearrange_policy import RearrangePolicy, check_planner
+from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.scene import load_scene, scene_from_dict
 from planners.actions import PlannerSettings
 
@@ -79,5 +79,5 @@ def test_policy_without_a_plan_holds_still_and_says_why() -> None:
 
 
 def test_unknown_planner_lists_the_choices() -> None:
-    with pytest.raises(ValueError, match="allowed: pushing"):
-        check_planner("teleport")
+    with pytest.raises(ValueError, match="allowed: pushing, pick-and-place, pg, tsr"):
+        RearrangePolicy(16, planner="teleport")

@@ -1,0 +1,565 @@
+"""`clutter-gym benchmark`: the paper's experiments as one command each, run in parallel.
+
+A suite is a list of (scene, noise level) cases; every case is planned by every requested
+planner from the same detection (the seed of a case depends on the scene, the noise level and
+``--seed`` only, never on the planner or the worker), and a returned plan is executed open loop
+on true worlds drawn from N(detection, Q) (`agents.execute`). One job is one (case, planner):
+jobs run in a local process pool or as Ray tasks, and every finished job is appended to
+``<json>.jobs.jsonl`` at once, so an interrupted run resumes where it stopped.
+
+Suites:
+* ``table1``: Table 1, the 10 scenes of each clutter level (`scenes/paper`) at sigma1-sigma4.
+* ``fig15``: pushing vs pick-and-place (§3.2.1, Figs. 15-16) on the figure scenes (Figs. 2, 3-5,
+  16 and a can behind a graspable poptart box) at their own noise: plan length, objects moved,
+  planning and execution time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+import platform
+import statistics
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from agents.execute import detect_scene, execute, plan_actions, plan_from_detection, true_worlds
+from clutter_gym.files import atomic_write_text
+from clutter_gym.scene import load_scene, resolve_noise
+from planners.actions import PlannerSettings
+from planners.rearrange import plan_rows, planner_kind
+
+TABLE1_NOISES = ("sigma1", "sigma2", "sigma3", "sigma4")
+CLUTTER_LEVELS = ("none", "medium", "high")
+FIGURE_SCENES = (
+    "figures/fig3_can_box_dumbbell",
+    "figures/fig16_shelf_can_behind_box",
+    "figures/fig2_high_uncertainty",
+    "can_behind_poptarts",
+)
+BACKENDS = ("local", "ray")
+
+PAPER_TABLE1: dict[tuple[str, str], tuple[tuple[int, float], ...]] = {
+    ("tsr", "none"): ((10, 0.01), (9, 0.52), (0, 0.86), (0, 0.86)),
+    ("tsr", "medium"): ((10, 0.01), (9, 1.02), (0, 1.61), (0, 1.63)),
+    ("tsr", "high"): ((5, 0.54), (0, 1.97), (0, 3.22), (0, 3.08)),
+    ("pg", "none"): ((10, 0.02), (10, 0.58), (10, 1.00), (5, 1.44)),
+    ("pg", "medium"): ((10, 0.04), (10, 1.17), (10, 5.17), (0, 3.91)),
+    ("pg", "high"): ((8, 1.98), (5, 12.93), (3, 28.16), (0, 7.46)),
+}
+"""Table 1 of the paper (`../shared/paper/RESULTS.md`): (scenes solved of 10, mean planning
+time [s]) per (planner, clutter level), at sigma1-sigma4. Reference data for the report."""
+
+
+@dataclass(frozen=True)
+class Case:
+    """One scene at one noise level; ``group`` is the clutter level or the figure."""
+
+    scene: str  # path of the scene JSON
+    label: str  # e.g. "high_03"
+    group: str
+    noise: str
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    description: str
+    cases: tuple[Case, ...]
+    planners: tuple[str, ...]  # the default planners
+
+
+@dataclass(frozen=True)
+class Job:
+    """One case planned by one planner, then executed on ``trials`` true worlds."""
+
+    case: Case
+    planner: str
+    seed: int
+    trials: int
+    time_budget: float
+
+    @property
+    def key(self) -> str:
+        return f"{self.case.label}/{self.case.noise}/{self.planner}/seed{self.seed}"
+
+    @property
+    def case_seed(self) -> int:
+        """The detection's, the samples', the worlds' and the planner's seed: the same for
+        every planner and every backend."""
+        text = f"{self.case.label}/{self.case.noise}/{self.seed}"
+        return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
+
+
+def _scene_path(relative: str) -> str:
+    return str(resources.files("clutter_gym").joinpath(f"scenes/{relative}.json"))
+
+
+def table1_suite() -> Suite:
+    cases = tuple(
+        Case(_scene_path(f"paper/{level}_{k:02d}"), f"{level}_{k:02d}", level, noise)
+        for level in CLUTTER_LEVELS
+        for k in range(10)
+        for noise in TABLE1_NOISES
+    )
+    return Suite(
+        "table1",
+        "Table 1: 10 scenes x 3 clutter levels x 4 noise levels",
+        cases,
+        ("tsr", "pg"),
+    )
+
+
+def fig15_suite() -> Suite:
+    cases = []
+    for name in FIGURE_SCENES:
+        path = _scene_path(name)
+        noise = load_scene(path).noise
+        if not isinstance(noise, str):
+            raise ValueError(f"{path}: noise must be a level name for the suite")
+        label = name.split("/")[-1]
+        cases.append(Case(path, label, label, noise))
+    return Suite(
+        "fig15",
+        "Pushing vs pick-and-place (§3.2.1) on the figure scenes: Figs. 2, 3-5, 16 and a can "
+        "behind a poptart box",
+        tuple(cases),
+        ("pushing", "pick-and-place"),
+    )
+
+
+SUITES: dict[str, Callable[[], Suite]] = {"table1": table1_suite, "fig15": fig15_suite}
+
+
+def get_suite(name: str) -> Suite:
+    try:
+        return SUITES[name]()
+    except KeyError:
+        raise ValueError(f"suite: {name!r} is unknown; allowed: {', '.join(SUITES)}") from None
+
+
+def parse_planners(text: str | None, suite: Suite) -> tuple[str, ...]:
+    """Comma-separated planner names (default: the suite's); unknown names list the valid."""
+    if not text:
+        return suite.planners
+    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    if not names:
+        raise ValueError(f"planners: {text!r} names no planner")
+    for name in names:
+        planner_kind(name)
+    return names
+
+
+# --------------------------------------------------------------------------------------------
+# One job
+# --------------------------------------------------------------------------------------------
+def run_job(job: Job) -> dict[str, Any]:
+    """Plan and execute one job. Never raises: an error becomes a failed record with it."""
+    record: dict[str, Any] = {
+        "key": job.key,
+        "scene": job.case.label,
+        "group": job.case.group,
+        "noise": job.case.noise,
+        "planner": job.planner,
+        "seed": job.seed,
+    }
+    try:
+        record.update(_plan_and_execute(job))
+        record["error"] = ""
+    except Exception as error:
+        record.update(_failed(f"{type(error).__name__}: {error}"))
+    return record
+
+
+def _failed(error: str) -> dict[str, Any]:
+    return {"success": False, "reason": f"crashed: {error}", "planning_time_s": None,
+            "error": error, "executions": 0, "execution_successes": 0}  # fmt: skip
+
+
+def _plan_and_execute(job: Job) -> dict[str, Any]:
+    scene = replace(load_scene(job.case.scene), noise=job.case.noise)
+    rng = np.random.default_rng(job.case_seed)
+    detection = detect_scene(scene, rng)
+    settings = PlannerSettings(time_budget=job.time_budget, seed=job.case_seed)
+    plan, _ = plan_from_detection(scene, detection, job.planner, settings, None, rng)
+    result: dict[str, Any] = {
+        "success": plan.success,
+        "reason": plan.reason,
+        "planning_time_s": round(plan.planning_time, 4),
+        "actions": len(plan.steps),
+        "objects_moved": plan.objects_moved,
+        "blocked_by": plan.blocked_by[:3],
+        "executions": 0,
+        "execution_successes": 0,
+    }
+    if not plan.success:
+        return result
+    result["plan_digest"] = hashlib.sha256(plan_rows(plan).tobytes()).hexdigest()[:12]
+    # Without noise every true world is the detection: one execution says it all.
+    trials = 1 if resolve_noise(scene.noise) == (0.0, 0.0) else job.trials
+    if trials == 0:
+        return result
+    actions = plan_actions(plan)
+    outcomes = []
+    for index, world in enumerate(true_worlds(scene, detection, trials, rng)):
+        try:
+            outcome, _ = execute(world, actions, seed=index)
+        except Exception as error:
+            outcome = {"success": False, "failure": f"crashed: {error!r}"}
+        outcomes.append(outcome)
+    failures = Counter(
+        o.get("failure") or "goal not retrieved" for o in outcomes if not o["success"]
+    )
+    simulated = [o["simulated_s"] for o in outcomes if "simulated_s" in o]
+    result.update(
+        executions=len(outcomes),
+        execution_successes=sum(o["success"] for o in outcomes),
+        execution_failures=dict(failures),
+        execution_simulated_s=round(float(np.mean(simulated)), 2) if simulated else None,
+    )
+    return result
+
+
+# --------------------------------------------------------------------------------------------
+# Backends
+# --------------------------------------------------------------------------------------------
+Work = Callable[[Job], dict[str, Any]]
+
+
+def _local(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]]:
+    """A spawn process pool with at most ``workers`` jobs in flight. A worker that dies (a
+    segfault in a native library, the OOM killer) breaks the pool: the jobs it was running
+    are retried one at a time in a fresh pool, and one that kills its worker alone is failed
+    with the error; the others go on."""
+    if workers <= 1:
+        yield from (work(job) for job in jobs)
+        return
+    queue, suspects = list(jobs), list[Job]()
+    context = multiprocessing.get_context("spawn")
+    while queue or suspects:
+        alone = bool(suspects)
+        batch, limit = (suspects, 1) if alone else (queue, workers)
+        pool = ProcessPoolExecutor(workers if not alone else 1, mp_context=context)
+        running: dict[Future[dict[str, Any]], Job] = {}
+        try:
+            while batch or running:
+                while batch and len(running) < limit:
+                    job = batch.pop(0)
+                    running[pool.submit(work, job)] = job
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    job = running.pop(future)
+                    try:
+                        yield future.result()
+                    except BrokenProcessPool:
+                        if alone:
+                            yield _crashed(job, "the worker process died running this job")
+                        else:
+                            suspects.append(job)
+                        for other in running.values():
+                            (suspects if not alone else batch).append(other)
+                        running.clear()
+                        break
+                else:
+                    continue
+                break  # the pool is broken: start a fresh one
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _crashed(job: Job, error: str) -> dict[str, Any]:
+    record = {"key": job.key, "scene": job.case.label, "group": job.case.group,
+              "noise": job.case.noise, "planner": job.planner, "seed": job.seed}  # fmt: skip
+    return {**record, **_failed(error)}
+
+
+def _ray(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]]:
+    """The same jobs as Ray tasks: on the cluster at ``RAY_ADDRESS``, else on a local Ray
+    started with ``workers`` CPUs. A task whose worker dies is retried once, then failed."""
+    try:
+        import ray
+    except ImportError:
+        raise ValueError(
+            "backend: 'ray' needs the optional extra: pip install 'clutter-gym[ray]'"
+        ) from None
+    started = False
+    if not ray.is_initialized():
+        options: dict[str, Any] = {"log_to_driver": False}
+        if not os.environ.get("RAY_ADDRESS"):
+            options.update(num_cpus=workers, include_dashboard=False)
+        ray.init(**options)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=1)(work)
+        pending = {remote.remote(job): job for job in jobs}
+        while pending:
+            (ready,), _ = ray.wait(list(pending), num_returns=1)
+            job = pending.pop(ready)
+            try:
+                yield ray.get(ready)
+            except ray.exceptions.RayError as error:
+                yield _crashed(job, f"{type(error).__name__}: {error}".splitlines()[0])
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def run_jobs(
+    jobs: list[Job], workers: int = 2, backend: str = "local", work: Work = run_job
+) -> Iterator[dict[str, Any]]:
+    """Records of ``jobs`` as they finish, on the named backend."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
+    if workers < 1:
+        raise ValueError(f"workers: {workers}; must be >= 1")
+    runner = _ray if backend == "ray" else _local
+    return runner(jobs, workers, work)
+
+
+# --------------------------------------------------------------------------------------------
+# The run: resumable log, report, table
+# --------------------------------------------------------------------------------------------
+def _config_digest(trials: int, time_budget: float) -> str:
+    return hashlib.sha256(json.dumps([trials, time_budget]).encode()).hexdigest()[:8]
+
+
+def _load_log(log: Path, config: str) -> dict[str, dict[str, Any]]:
+    done: dict[str, dict[str, Any]] = {}
+    if log.exists():
+        for line in log.read_text().splitlines():
+            try:
+                record = json.loads(line)
+            except ValueError:
+                continue  # a line cut short by an interruption
+            if isinstance(record, dict) and record.get("config") == config and "key" in record:
+                done[record["key"]] = record
+    return done
+
+
+def run_benchmark(
+    suite_name: str,
+    planners: str | None = None,
+    out: Path = Path("out/benchmark.json"),
+    markdown: Path | None = None,
+    trials: int = 10,
+    seed: int = 0,
+    time_budget: float = 20.0,
+    workers: int = 2,
+    backend: str = "local",
+    scenes_per_group: int | None = None,
+    plots: Path | None = None,
+    work: Work = run_job,
+) -> dict[str, Any]:
+    """Run (or resume) a suite; write the JSON report, the Markdown table and the plots."""
+    suite = get_suite(suite_name)
+    names = parse_planners(planners, suite)
+    if trials < 0:
+        raise ValueError(f"trials: {trials}; must be >= 0")
+    if not (np.isfinite(time_budget) and time_budget > 0):
+        raise ValueError(f"time_budget: {time_budget!r}; must be > 0")
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
+    cases = _first_scenes(suite.cases, scenes_per_group)
+    jobs = [Job(c, p, seed, trials, time_budget) for c in cases for p in names]
+    config = _config_digest(trials, time_budget)
+    log = out.with_name(f"{out.name}.jobs.jsonl")
+    done = _load_log(log, config)
+    todo = [j for j in jobs if j.key not in done]
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with (
+        log.open("a") as handle,
+        tqdm(total=len(jobs), initial=len(jobs) - len(todo), desc=suite.name, unit="job") as bar,
+    ):
+        for record in run_jobs(todo, workers, backend, work):
+            handle.write(json.dumps({"config": config, **record}) + "\n")
+            handle.flush()
+            done[record["key"]] = record
+            bar.update()
+            bar.set_postfix_str(f"{record['key']}: {'plan' if record['success'] else 'no plan'}")
+    records = [done[j.key] for j in jobs]
+    report = {
+        "suite": suite.name,
+        "description": suite.description,
+        "planners": list(names),
+        "trials": trials,
+        "time_budget_s": time_budget,
+        "seed": seed,
+        "workers": workers,
+        "backend": backend,
+        "machine": {"python": platform.python_version(), "cpus": os.cpu_count()},
+        "summary": summarize(records, suite.name),
+        "records": records,
+    }
+    atomic_write_text(out, json.dumps(report, indent=1) + "\n")
+    if markdown is not None:
+        atomic_write_text(markdown, to_markdown(report))
+    if plots is not None:
+        from agents.benchmark_plots import write_plots
+
+        report["plots"] = [str(p) for p in write_plots(report, plots)]
+    return report
+
+
+def _first_scenes(cases: Iterable[Case], per_group: int | None) -> list[Case]:
+    if per_group is None:
+        return list(cases)
+    if per_group < 1:
+        raise ValueError(f"scenes_per_group: {per_group}; must be >= 1")
+    labels: dict[str, list[str]] = {}
+    for c in cases:
+        group = labels.setdefault(c.group, [])
+        if c.label not in group:
+            group.append(c.label)
+    keep = {label for group in labels.values() for label in group[:per_group]}
+    return [c for c in cases if c.label in keep]
+
+
+def summarize(records: list[dict[str, Any]], suite: str) -> dict[str, Any]:
+    """Per planner, group and noise: scenes solved, mean planning time, execution success."""
+    cells: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    for r in records:
+        cells.setdefault((r["planner"], r["group"], r["noise"]), []).append(r)
+    summary: dict[str, Any] = {}
+    for (planner, group, noise), rows in cells.items():
+        times = [r["planning_time_s"] for r in rows if r["planning_time_s"] is not None]
+        solved = [r for r in rows if r["success"]]
+        executions = sum(r["executions"] for r in rows)
+        successes = sum(r["execution_successes"] for r in rows)
+        cell: dict[str, Any] = {
+            "scenes": len(rows),
+            "solved": len(solved),
+            "crashed": sum(bool(r.get("error")) for r in rows),
+            "mean_planning_time_s": _mean(times),
+            "mean_planning_time_solved_s": _mean([r["planning_time_s"] for r in solved]),
+            "executions": executions,
+            "execution_successes": successes,
+            "execution_success_rate": round(successes / executions, 4) if executions else None,
+        }
+        if suite == "fig15":
+            cell.update(_figure_row(solved))
+        paper = PAPER_TABLE1.get((planner, group))
+        if suite == "table1" and paper is not None and noise in TABLE1_NOISES:
+            paper_cell = paper[TABLE1_NOISES.index(noise)]
+            cell["paper_solved"], cell["paper_mean_planning_time_s"] = paper_cell
+        summary.setdefault(planner, {}).setdefault(group, {})[noise] = cell
+    return summary
+
+
+def _figure_row(solved: list[dict[str, Any]]) -> dict[str, Any]:
+    if not solved:
+        return {"actions": None, "objects_moved": None, "execution_simulated_s": None}
+    r = solved[0]
+    return {
+        "actions": r["actions"],
+        "objects_moved": r["objects_moved"],
+        "execution_simulated_s": r.get("execution_simulated_s"),
+    }
+
+
+def _mean(values: list[float]) -> float | None:
+    return round(statistics.fmean(values), 4) if values else None
+
+
+# --------------------------------------------------------------------------------------------
+# Markdown
+# --------------------------------------------------------------------------------------------
+def to_markdown(report: dict[str, Any]) -> str:
+    if report["suite"] == "table1":
+        return _table1_markdown(report)
+    return _figures_markdown(report)
+
+
+def _cell_text(cell: dict[str, Any] | None) -> str:
+    if cell is None:
+        return "-"
+    t = cell["mean_planning_time_s"]
+    return f"{cell['solved']} / {t:.2f}" if t is not None else f"{cell['solved']} / -"
+
+
+def _table1_markdown(report: dict[str, Any]) -> str:
+    summary, planners = report["summary"], report["planners"]
+    noises = sorted({n for p in summary.values() for g in p.values() for n in g})
+    groups = [g for g in CLUTTER_LEVELS if any(g in summary[p] for p in planners)]
+    head = "| noise | " + " | ".join(f"{g}: {p}" for g in groups for p in planners) + " |"
+    rule = "|---" * (1 + len(groups) * len(planners)) + "|"
+    lines = [
+        f"# {report['description']}",
+        "",
+        f"Scenes solved / mean planning time [s] over all scenes of the cell; in brackets the "
+        f"paper's Table 1 where it has the planner. Planning budget {report['time_budget_s']:g} "
+        f"s, {report['workers']} workers ({report['backend']}), Python "
+        f"{report['machine']['python']}.",
+        "",
+        head,
+        rule,
+    ]
+    for noise in noises:
+        row = []
+        for g in groups:
+            for p in planners:
+                cell = summary.get(p, {}).get(g, {}).get(noise)
+                text = _cell_text(cell)
+                if cell and "paper_solved" in cell:
+                    text += f" ({cell['paper_solved']} / {cell['paper_mean_planning_time_s']:.2f})"
+                row.append(text)
+        lines.append(f"| {noise} | " + " | ".join(row) + " |")
+    lines += [
+        "",
+        f"Execution success of the returned plans ({report['trials']} true worlds per plan "
+        "drawn from N(detection, Q); one world without noise):",
+        "",
+        head,
+        rule,
+    ]
+    for noise in noises:
+        row = []
+        for g in groups:
+            for p in planners:
+                cell = summary.get(p, {}).get(g, {}).get(noise)
+                if not cell or not cell["executions"]:
+                    row.append("-")
+                else:
+                    row.append(f"{cell['execution_successes']}/{cell['executions']}")
+        lines.append(f"| {noise} | " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _figures_markdown(report: dict[str, Any]) -> str:
+    lines = [
+        f"# {report['description']}",
+        "",
+        "| scene | noise | planner | plan | actions | objects moved | planning time [s] "
+        "| execution [simulated s] | execution success |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in report["records"]:
+        moved = ", ".join(r.get("objects_moved") or []) or "-"
+        execution = "-" if not r["executions"] else f"{r['execution_successes']}/{r['executions']}"
+        simulated = r.get("execution_simulated_s")
+        lines.append(
+            f"| {r['scene']} | {r['noise']} | {r['planner']} | "
+            f"{'yes' if r['success'] else 'no: ' + _short(r)} | {r.get('actions', '-')} | "
+            f"{moved} | {_or_dash(r['planning_time_s'])} | {_or_dash(simulated)} "
+            f"| {execution} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _or_dash(value: object) -> str:
+    return "-" if value is None else str(value)
+
+
+def _short(record: dict[str, Any]) -> str:
+    blocked = record.get("blocked_by") or [record["reason"]]
+    return str(blocked[0]).replace("|", "/")

@@ -1,0 +1,63 @@
+"""Task space regions for grasping under pose uncertainty (Berenson, Srinivasa & Kuffner 2009).
+
+A TSR is a frame ``T0_w`` (here the detected object pose), an offset ``Tw_e`` and bounds ``B_w`` on
+the end effector's six coordinates in that frame. HERB grasps an upright object from the side with
+the finger plane horizontal at grasp height, so z, roll and pitch are fixed and three coordinates
+are free: the approach heading around the object, the object's lateral offset between the fingers
+and its depth in the hand.
+
+The *uncertainty* TSR planner (Table 1's baseline) keeps a sampled hand pose only if it grasps
+every hypothesis of the object pose as it stands: the hand moves in and closes, it does not push.
+That is the push-grasp capture region at zero push (every sample inside with d = 0, §2.2.3), so the
+baseline and the push-grasp planner are judged by the same hand model and mechanics; the one
+difference is the push.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planners.capture import CaptureRegion
+from planners.frames import Frame2D
+
+
+@dataclass(frozen=True)
+class GraspTSR:
+    """Bounds on a horizontal side grasp of an object at ``centre``: the approach heading (world
+    yaw), the object centre's lateral offset (hand y) and its depth (hand x, from hand_base)."""
+
+    centre: tuple[float, float]
+    heading: tuple[float, float]
+    lateral: tuple[float, float]
+    depth: tuple[float, float]
+
+    def sample(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """``count`` hand poses drawn uniformly from the bounds: rows (heading, lateral, depth)."""
+        low = [self.heading[0], self.lateral[0], self.depth[0]]
+        high = [self.heading[1], self.lateral[1], self.depth[1]]
+        return rng.uniform(low, high, size=(count, 3))
+
+    def hand_frame(self, heading: float, lateral: float, depth: float) -> Frame2D:
+        """The hand's frame (origin hand_base, x along the approach) that holds the object centre
+        at (depth, lateral)."""
+        v = np.array([math.cos(heading), math.sin(heading)])
+        n = np.array([-v[1], v[0]])
+        origin = np.asarray(self.centre) - depth * v - lateral * n
+        return Frame2D((float(origin[0]), float(origin[1])), heading)
+
+
+def grasps_every_sample(
+    region: CaptureRegion, tsr: GraspTSR, draws: np.ndarray, samples: np.ndarray
+) -> np.ndarray:
+    """For hand poses ``draws`` (K, 3) from `GraspTSR.sample`: does closing the hand there grasp
+    every object pose in ``samples`` (N, 3) without pushing? Returns a (K,) mask."""
+    samples = np.asarray(samples, dtype=float).reshape(-1, 3)
+    in_hand = np.concatenate(
+        [tsr.hand_frame(*draw).to_frame(samples) for draw in np.asarray(draws, dtype=float)]
+    )
+    inside, push = region.query(in_hand)
+    static = (inside & (push <= 0.0)).reshape(len(draws), len(samples))
+    return np.asarray(static.all(axis=1))
