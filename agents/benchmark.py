@@ -261,16 +261,18 @@ def _local(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]
                 for future in done:
                     job = running.pop(future)
                     try:
-                        yield future.result()
+                        record = future.result()
                     except BrokenProcessPool:
                         if alone:
                             yield _crashed(job, "the worker process died running this job")
                         else:
                             suspects.append(job)
-                        for other in running.values():
-                            (suspects if not alone else batch).append(other)
+                        suspects.extend(running.values())  # empty when alone
                         running.clear()
                         break
+                    except Exception as error:  # raised by the job itself: its failure
+                        record = _crashed(job, f"{type(error).__name__}: {error}")
+                    yield record
                 else:
                     continue
                 break  # the pool is broken: start a fresh one
@@ -358,6 +360,7 @@ def run_benchmark(
     workers: int = 2,
     backend: str = "local",
     scenes_per_group: int | None = None,
+    noises: tuple[str, ...] | None = None,
     plots: Path | None = None,
     work: Work = run_job,
 ) -> dict[str, Any]:
@@ -371,6 +374,12 @@ def run_benchmark(
     if backend not in BACKENDS:
         raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
     cases = _first_scenes(suite.cases, scenes_per_group)
+    if noises is not None:
+        known = sorted({c.noise for c in suite.cases})
+        unknown = [n for n in noises if n not in known]
+        if unknown or not noises:
+            raise ValueError(f"noises: {list(noises)!r}; the suite has {', '.join(known)}")
+        cases = [c for c in cases if c.noise in noises]
     jobs = [Job(c, p, seed, trials, time_budget) for c in cases for p in names]
     config = _config_digest(trials, time_budget)
     log = out.with_name(f"{out.name}.jobs.jsonl")

@@ -9,9 +9,9 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from agents.benchmark import PAPER_TABLE1, TABLE1_NOISES  # noqa: E402
+from agents.benchmark import PAPER_TABLE1, TABLE1_NOISES
 
 
 def write_plots(report: dict[str, Any], directory: Path) -> list[Path]:

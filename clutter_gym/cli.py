@@ -86,6 +86,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         workers=args.workers,
         backend=args.backend,
         scenes_per_group=args.scenes_per_group,
+        noises=tuple(args.noises.split(",")) if args.noises else None,
         plots=Path(args.plots) if args.plots else None,
     )
     for planner, groups in report["summary"].items():
@@ -236,6 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark.add_argument(
         "--scenes-per-group", type=int, default=None, help="only the first N scenes per level"
     )
+    benchmark.add_argument("--noises", default=None, help="only these noise levels, e.g. sigma2")
     benchmark.set_defaults(func=_cmd_benchmark)
 
     plots = sub.add_parser("benchmark-plots", help="PNG plots from a benchmark JSON")

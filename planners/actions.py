@@ -544,7 +544,9 @@ def push_grasp(
     if action == "pickup" and not spec.liftable:
         ctx.fail(name, action, "too heavy to lift")
         return
-    apertures = push_grasp_apertures(spec.footprint)
+    # The goal is grasped from the widest preshape first: closing from a narrow one pops a
+    # tall bottle up out of the hand in simulation (the Table 1 suite at sigma1).
+    apertures = sorted(push_grasp_apertures(spec.footprint), reverse=action == "pickup")
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
     found = 0
     for heading in _push_headings(ctx, name, reach):

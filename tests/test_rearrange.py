@@ -4,6 +4,7 @@ what blocks the goal, and bad requests fail clearly."""
 from __future__ import annotations
 
 import json
+import zlib
 from importlib import resources
 
 import numpy as np
@@ -24,7 +25,7 @@ SIGMA2 = (0.005, 0.034)
 
 
 def belief(name: str, kind: str, pose: tuple[float, float, float], n: int = 30) -> ObjectBelief:
-    rng = np.random.default_rng(abs(hash(name)) % 2**32)
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
     sigma = SIGMA2 if n > 1 else (0.0, 0.0)
     return ObjectBelief(name, get_object(kind), pose, sample_poses(np.array(pose), sigma, n, rng))
 

@@ -1,0 +1,98 @@
+"""The paper's baseline planners: uncertainty TSR, push-grasp only (PG) and pick-and-place."""
+
+from __future__ import annotations
+
+import json
+import zlib
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from clutter_gym.objects import get_object
+from clutter_gym.robot import herb_model as hm
+from clutter_gym.scene import NOISE_LEVELS, load_scene
+from clutter_gym.world import TABLE
+from planners.actions import PlannerSettings
+from planners.capture import push_grasp_apertures, push_grasp_region
+from planners.collision import Volume
+from planners.hand2d import push_grasp_profile
+from planners.rearrange import Plan, plan_retrieval
+from planners.tsr import GraspTSR, grasps_every_sample
+from planners.uncertainty import ObjectBelief, sample_count, sample_poses
+
+CAN = get_object("soda_can")
+
+
+def beliefs(scene: str, noise: str) -> list[ObjectBelief]:
+    text = resources.files("clutter_gym").joinpath(f"scenes/{scene}.json").read_text()
+    sigma = NOISE_LEVELS[noise]
+    out = []
+    for o in load_scene(json.loads(text)).objects:
+        rng = np.random.default_rng(zlib.crc32(o.name.encode()))
+        samples = sample_poses(np.array(o.pose), sigma, sample_count(sigma), rng)
+        out.append(ObjectBelief(o.name, get_object(o.kind), o.pose, samples))
+    return out
+
+
+def plan(scene: str, noise: str, planner: str) -> Plan:
+    bs = beliefs(scene, noise)
+    goal = json.loads(resources.files("clutter_gym").joinpath(f"scenes/{scene}.json").read_text())[
+        "goal"
+    ]["object"]
+    settings = PlannerSettings(time_budget=120.0)  # far above these plans: deterministic
+    return plan_retrieval(TABLE, bs, goal, hm.RIGHT_ARM_HOME, settings, planner=planner)
+
+
+def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
+    aperture = max(push_grasp_apertures(CAN.footprint))
+    region = push_grasp_region(CAN.footprint, aperture)
+    profile = push_grasp_profile(aperture)
+    depth = profile.grasp_line - 0.03
+    tsr = GraspTSR((1.0, 0.0), (0.0, 0.0), (0.0, 0.0), (depth, depth))
+    draw = np.array([[0.0, 0.0, depth]])
+    assert grasps_every_sample(region, tsr, draw, np.array([[1.0, 0.0, 0.0]]))[0]
+    # 7 cm to either side of the centre: no single hand pose closes on both.
+    spread = np.array([[1.0, -0.07, 0.0], [1.0, 0.07, 0.0]])
+    assert not grasps_every_sample(region, tsr, draw, spread)[0]
+
+
+@pytest.mark.parametrize("noise", ["sigma1", "sigma2"])
+def test_tsr_grasps_a_lone_can_at_low_noise(noise: str) -> None:
+    result = plan("paper/none_00", noise, "tsr")
+    assert result.success, result.blocked_by
+    assert [s.result.action for s in result.steps] == ["pickup"]
+
+
+def test_tsr_fails_at_sigma3_because_no_static_pose_grasps_every_sample() -> None:
+    result = plan("paper/none_00", "sigma3", "tsr")
+    assert not result.success
+    assert "no hand pose in the TSR grasps every uncertainty sample" in result.blocked_by[0]
+    # The push-grasp handles the same uncertainty by pushing (Table 1: PG 10/10 at sigma3).
+    assert plan("paper/none_00", "sigma3", "pg").success
+
+
+def test_pg_never_moves_an_obstacle_where_pushing_sweeps_it() -> None:
+    pg = plan("figures/fig3_can_box_dumbbell", "sigma2", "pg")
+    assert not pg.success
+    pushing = plan("figures/fig3_can_box_dumbbell", "sigma2", "pushing")
+    assert pushing.success and pushing.objects_moved == ["big_box"]
+
+
+def test_pick_and_place_cannot_move_the_large_box() -> None:
+    result = plan("figures/fig3_can_box_dumbbell", "sigma2", "pick-and-place")
+    assert not result.success
+
+
+def test_pick_and_place_carries_the_poptart_box_out_of_the_way() -> None:
+    result = plan("can_behind_poptarts", "sigma1", "pick-and-place")
+    assert result.success, result.blocked_by
+    first = result.steps[0]
+    assert (first.result.action, first.result.obj) == ("pick-and-place", "poptarts")
+    labels = [s.label for s in first.result.motion.segments]
+    assert labels[:5] == ["push", "close", "lift", "carry", "lower"]
+    assert "release" in labels
+    picked, placed = first.result.nu[0], first.result.nu[-1]
+    assert np.linalg.norm(placed[0, :2] - picked[0, :2]) > 0.04
+    poptarts = get_object("poptart_box")
+    assert not Volume.of_object("poptarts", poptarts, placed, TABLE.top_z).intersects(first.ngr)

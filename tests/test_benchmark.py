@@ -1,0 +1,130 @@
+"""`clutter-gym benchmark`: suites, backends, resuming, crash tolerance, table and plots."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from agents.benchmark import Job, run_benchmark
+from clutter_gym.cli import main
+
+SMALL = {
+    "scenes_per_group": 1,
+    "noises": ("sigma2",),
+    "trials": 1,
+    "workers": 2,
+    "time_budget": 120.0,
+}
+"""One scene per clutter level at sigma2, TSR and PG, one execution per plan: 6 jobs."""
+
+
+def _comparable(record: dict[str, Any]) -> dict[str, Any]:
+    """A record without wall-clock times: what the same seed must reproduce exactly."""
+    return {k: v for k, v in record.items() if k != "planning_time_s"}
+
+
+@pytest.fixture(scope="module")
+def local_report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    out = tmp_path_factory.mktemp("local") / "table1.json"
+    return run_benchmark(
+        "table1", "tsr,pg", out, markdown=out.with_suffix(".md"), plots=out.parent, **SMALL
+    )
+
+
+def test_small_table1_plans_executes_and_writes_table_and_plots(
+    local_report: dict[str, Any], tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    records = local_report["records"]
+    assert [(r["scene"], r["planner"]) for r in records] == [
+        (f"{level}_00", planner)
+        for level in ("none", "medium", "high")
+        for planner in ("tsr", "pg")
+    ]
+    assert all(not r["error"] for r in records)
+    none_pg = local_report["summary"]["pg"]["none"]["sigma2"]
+    assert none_pg["solved"] == 1 and none_pg["executions"] == 1
+    assert none_pg["paper_solved"] == 10
+    for r in records:
+        assert r["executions"] == (1 if r["success"] else 0)
+    markdown = Path(local_report["plots"][0]).parent / "table1.md"
+    text = markdown.read_text()
+    assert "| sigma2 | " in text and "(10 / 0.58)" in text  # PG's paper cell beside ours
+    for png in local_report["plots"]:
+        assert Path(png).stat().st_size > 10_000
+
+
+def test_ray_backend_gives_the_same_results(local_report: dict[str, Any], tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    ray_report = run_benchmark("table1", "tsr,pg", tmp_path / "ray.json", backend="ray", **SMALL)
+    assert [_comparable(r) for r in ray_report["records"]] == [
+        _comparable(r) for r in local_report["records"]
+    ]
+
+
+def _fake(job: Job, **extra: object) -> dict[str, Any]:
+    return {"key": job.key, "scene": job.case.label, "group": job.case.group,
+            "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
+            "reason": "", "planning_time_s": 0.1, "executions": 0, "execution_successes": 0,
+            "error": "", **extra}  # fmt: skip
+
+
+def test_an_interrupted_run_resumes_from_its_log(tmp_path: Path) -> None:
+    out = tmp_path / "table1.json"
+    calls: list[str] = []
+
+    def interrupted(job: Job) -> dict[str, Any]:
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        calls.append(job.key)
+        return _fake(job, first_run=True)
+
+    with pytest.raises(KeyboardInterrupt):
+        run_benchmark("table1", "tsr,pg", out, work=interrupted, **{**SMALL, "workers": 1})
+    log = out.with_name("table1.json.jobs.jsonl")
+    assert len(log.read_text().splitlines()) == 4
+    with log.open("a") as handle:
+        handle.write('{"config": "cut short by the interrup')
+    report = run_benchmark("table1", "tsr,pg", out, work=_fake, **{**SMALL, "workers": 1})
+    assert [r["key"] for r in report["records"] if r.get("first_run")] == calls
+    assert len(report["records"]) == 6 and all(r["success"] for r in report["records"])
+
+
+def _crash_on_medium_tsr(job: Job) -> dict[str, Any]:
+    """Kills its worker process on one job; fakes the others quickly."""
+    if job.case.label == "medium_00" and job.planner == "tsr":
+        os._exit(3)
+    if job.case.label == "high_00" and job.planner == "tsr":
+        raise RuntimeError("a bug in one scene")
+    return _fake(job)
+
+
+def test_a_crashing_job_is_marked_failed_and_the_run_goes_on(tmp_path: Path) -> None:
+    report = run_benchmark(
+        "table1", "tsr,pg", tmp_path / "crash.json", work=_crash_on_medium_tsr, **SMALL
+    )
+    by_key = {r["key"]: r for r in report["records"]}
+    dead = by_key["medium_00/sigma2/tsr/seed0"]
+    assert not dead["success"] and "worker process died" in dead["error"]
+    bug = by_key["high_00/sigma2/tsr/seed0"]
+    assert not bug["success"] and "a bug in one scene" in bug["error"]
+    assert sum(r["success"] for r in report["records"]) == 4
+    assert report["summary"]["tsr"]["medium"]["sigma2"]["crashed"] == 1
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--suite", "table2"], "suite: 'table2' is unknown; allowed: table1, fig15"),
+        (["--suite", "table1", "--planners", "tsr,rrt"], "pushing, pick-and-place, pg, tsr"),
+        (["--suite", "table1", "--backend", "dask"], "'dask' is unknown; allowed: local, ray"),
+        (["--suite", "table1", "--noises", "sigma9"], "has sigma1, sigma2, sigma3, sigma4"),
+    ],
+)  # fmt: skip
+def test_bad_names_are_one_error_listing_the_valid_ones(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["benchmark", *argv, "--json", str(tmp_path / "x.json")]) == 2
+    assert message in capsys.readouterr().err
