@@ -489,11 +489,39 @@ def to_markdown(report: dict[str, Any]) -> str:
     return _figures_markdown(report)
 
 
-def _cell_text(cell: dict[str, Any] | None) -> str:
+def _rows(
+    summary: dict[str, Any],
+    noises: list[str],
+    groups: list[str],
+    planners: list[str],
+    text: Callable[[dict[str, Any] | None], str],
+) -> list[str]:
+    """One Markdown row per noise level, one cell per (group, planner)."""
+    return [
+        f"| {noise} | "
+        + " | ".join(
+            text(summary.get(p, {}).get(g, {}).get(noise)) for g in groups for p in planners
+        )
+        + " |"
+        for noise in noises
+    ]
+
+
+def _planning_text(cell: dict[str, Any] | None) -> str:
+    """Scenes solved / mean planning time, and the paper's cell in brackets if it has one."""
     if cell is None:
         return "-"
     t = cell["mean_planning_time_s"]
-    return f"{cell['solved']} / {t:.2f}" if t is not None else f"{cell['solved']} / -"
+    text = f"{cell['solved']} / {t:.2f}" if t is not None else f"{cell['solved']} / -"
+    if "paper_solved" in cell:
+        text += f" ({cell['paper_solved']} / {cell['paper_mean_planning_time_s']:.2f})"
+    return text
+
+
+def _execution_text(cell: dict[str, Any] | None) -> str:
+    if not cell or not cell["executions"]:
+        return "-"
+    return f"{cell['execution_successes']}/{cell['executions']}"
 
 
 def _table1_markdown(report: dict[str, Any]) -> str:
@@ -501,11 +529,13 @@ def _table1_markdown(report: dict[str, Any]) -> str:
     noises = sorted({n for p in summary.values() for g in p.values() for n in g})
     groups = [g for g in CLUTTER_LEVELS if any(g in summary[p] for p in planners)]
     head = "| noise | " + " | ".join(f"{g}: {p}" for g in groups for p in planners) + " |"
+    scenes = max(c["scenes"] for p in summary.values() for g in p.values() for c in g.values())
     rule = "|---" * (1 + len(groups) * len(planners)) + "|"
     lines = [
         f"# {report['description']}",
         "",
-        f"Scenes solved / mean planning time [s] over all scenes of the cell; in brackets the "
+        f"Scenes solved (of {scenes} per cell) / mean planning time [s] over all scenes of the "
+        "cell; in brackets the "
         f"paper's Table 1 where it has the planner. Planning budget {report['time_budget_s']:g} "
         f"s, {report['workers']} workers ({report['backend']}), Python "
         f"{report['machine']['python']}.",
@@ -513,16 +543,7 @@ def _table1_markdown(report: dict[str, Any]) -> str:
         head,
         rule,
     ]
-    for noise in noises:
-        row = []
-        for g in groups:
-            for p in planners:
-                cell = summary.get(p, {}).get(g, {}).get(noise)
-                text = _cell_text(cell)
-                if cell and "paper_solved" in cell:
-                    text += f" ({cell['paper_solved']} / {cell['paper_mean_planning_time_s']:.2f})"
-                row.append(text)
-        lines.append(f"| {noise} | " + " | ".join(row) + " |")
+    lines += _rows(summary, noises, groups, planners, _planning_text)
     lines += [
         "",
         f"Execution success of the returned plans ({report['trials']} true worlds per plan "
@@ -531,16 +552,7 @@ def _table1_markdown(report: dict[str, Any]) -> str:
         head,
         rule,
     ]
-    for noise in noises:
-        row = []
-        for g in groups:
-            for p in planners:
-                cell = summary.get(p, {}).get(g, {}).get(noise)
-                if not cell or not cell["executions"]:
-                    row.append("-")
-                else:
-                    row.append(f"{cell['execution_successes']}/{cell['executions']}")
-        lines.append(f"| {noise} | " + " | ".join(row) + " |")
+    lines += _rows(summary, noises, groups, planners, _execution_text)
     return "\n".join(lines) + "\n"
 
 

@@ -76,7 +76,8 @@ PLACEMENT_SPACING = 0.05  # m between candidate placements and between carried-v
 PLACEMENT_TRIES = 6  # placements in G tried per grasp, nearest first
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
 TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
-TSR_IK_TRIES = 8  # static-grasp poses tried with IK and motions per aperture
+TSR_IK_TRIES = 12  # static-grasp poses tried with IK and motions per aperture
+TSR_SPREAD = math.radians(4.0)  # rad between the headings of the poses tried
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 ARM_CHECK_STEP = 0.02  # rad between collision-checked configurations along a motion
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
@@ -565,6 +566,14 @@ def push_grasp(
             if found >= ctx.settings.candidates_per_action:
                 return
             break  # the next candidate pushes from another direction
+    if action == "pickup":
+        # A push-grasp with no push (d = 0) is a static grasp (§3.1.2): the hand poses of the
+        # goal's TSR come after the discrete directions, so PG plans wherever TSR does.
+        for result in static_grasp(ctx, name, goal, avoid):
+            yield result
+            found += 1
+            if found >= ctx.settings.candidates_per_action:
+                return
 
 
 class _Uncaptured:
@@ -823,15 +832,19 @@ def static_grasp(
         ranked = np.array(_push_headings(ctx, name, profile.pusher.bounds[3]))
         rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
         draws = draws[np.lexsort((np.abs(draws[:, 1]), rank))]
-        tried = 0
+        tried: list[float] = []
         for heading, lateral, depth in draws:
-            if tried >= TSR_IK_TRIES:
+            if len(tried) >= TSR_IK_TRIES:
                 break
-            if any(abs(heading - h) < math.radians(ctx.settings.heading_step_deg) for h in found):
-                continue  # a candidate from nearly the same direction fails the same way
+            near_found = any(
+                abs(heading - h) < math.radians(ctx.settings.heading_step_deg) for h in found
+            )
+            near_tried = any(abs(heading - h) < TSR_SPREAD for h in tried)
+            if near_found or near_tried:
+                continue  # a pose from nearly the same direction fails (or works) the same way
             ctx.check_budget()
             ctx.stats.actions_tried += 1
-            tried += 1
+            tried.append(float(heading))
             frame = tsr.hand_frame(heading, lateral, depth)
             end_xy = np.asarray(frame.origin)
             back = (
