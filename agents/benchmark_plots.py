@@ -45,8 +45,9 @@ def _success_vs_noise(report: dict[str, Any], path: Path) -> Path:
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, group in zip(axes[0], groups, strict=True):
         noises = _noises(report, group)
-        x = range(len(noises))
         for k, planner in enumerate(report["planners"]):
+            # A small shift per planner keeps coinciding lines visible.
+            x = [i + 0.04 * (k - (len(report["planners"]) - 1) / 2) for i in range(len(noises))]
             cells = [report["summary"].get(planner, {}).get(group, {}).get(n) for n in noises]
             colour = colours[k % len(colours)]
             planned = [c["solved"] / c["scenes"] if c else float("nan") for c in cells]
@@ -64,7 +65,7 @@ def _success_vs_noise(report: dict[str, Any], path: Path) -> Path:
                     for n in noises
                 ]
                 ax.plot(x, values, ":", color=colour, label=f"{planner}: paper planned")
-        ax.set_xticks(list(x), noises, rotation=20 if len(noises) > 4 else 0)
+        ax.set_xticks(range(len(noises)), noises, rotation=20 if len(noises) > 4 else 0)
         ax.set_ylim(-0.05, 1.05)
         ax.set_title(f"{group}")
         ax.set_xlabel("noise level")

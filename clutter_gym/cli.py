@@ -200,7 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
         "plan", help="plan a retrieval with Rearrange; optionally execute it on noisy worlds"
     )
     plan.add_argument("--scene", required=True, help="scene JSON (true poses and noise)")
-    plan.add_argument("--planner", default="pushing", help="planner name (default: pushing)")
+    plan.add_argument(
+        "--planner", default="pushing", help="pushing (default), pick-and-place, pg or tsr"
+    )
     plan.add_argument(
         "--noise", default=None, help="override the scene's noise: a level or 'xy,theta'"
     )

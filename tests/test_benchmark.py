@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from agents.benchmark import Job, run_benchmark
+from agents.benchmark import Job, get_suite, run_benchmark
 from clutter_gym.cli import main
 
 SMALL = {
@@ -128,3 +128,17 @@ def test_bad_names_are_one_error_listing_the_valid_ones(
 ) -> None:
     assert main(["benchmark", *argv, "--json", str(tmp_path / "x.json")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_suites_hold_the_papers_cases() -> None:
+    table1 = get_suite("table1")
+    assert len(table1.cases) == 10 * 3 * 4
+    assert {c.noise for c in table1.cases} == {"sigma1", "sigma2", "sigma3", "sigma4"}
+    fig15 = get_suite("fig15")
+    assert fig15.planners == ("pushing", "pick-and-place")
+    assert {c.label: c.noise for c in fig15.cases} == {
+        "fig3_can_box_dumbbell": "sigma2",
+        "fig16_shelf_can_behind_box": "sigma2",
+        "fig2_high_uncertainty": "fig2",
+        "can_behind_poptarts": "sigma2",
+    }
