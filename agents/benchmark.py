@@ -22,7 +22,6 @@ import multiprocessing
 import os
 import platform
 import statistics
-from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -34,7 +33,14 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from agents.execute import detect_scene, execute, plan_actions, plan_from_detection, true_worlds
+from agents.execute import (
+    detect_scene,
+    execute_trial,
+    outcome_summary,
+    plan_actions,
+    plan_from_detection,
+    true_worlds,
+)
 from clutter_gym.files import atomic_write_text
 from clutter_gym.scene import load_scene, resolve_noise
 from planners.actions import PlannerSettings
@@ -166,25 +172,22 @@ def parse_planners(text: str | None, suite: Suite) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------------
 def run_job(job: Job) -> dict[str, Any]:
     """Plan and execute one job. Never raises: an error becomes a failed record with it."""
-    record: dict[str, Any] = {
-        "key": job.key,
-        "scene": job.case.label,
-        "group": job.case.group,
-        "noise": job.case.noise,
-        "planner": job.planner,
-        "seed": job.seed,
-    }
     try:
-        record.update(_plan_and_execute(job))
-        record["error"] = ""
+        return {**_identity(job), **_plan_and_execute(job), "error": ""}
     except Exception as error:
-        record.update(_failed(f"{type(error).__name__}: {error}"))
-    return record
+        return _crashed(job, f"{type(error).__name__}: {error}")
 
 
-def _failed(error: str) -> dict[str, Any]:
-    return {"success": False, "reason": f"crashed: {error}", "planning_time_s": None,
-            "error": error, "executions": 0, "execution_successes": 0}  # fmt: skip
+def _identity(job: Job) -> dict[str, Any]:
+    return {"key": job.key, "scene": job.case.label, "group": job.case.group,
+            "noise": job.case.noise, "planner": job.planner, "seed": job.seed}  # fmt: skip
+
+
+def _crashed(job: Job, error: str) -> dict[str, Any]:
+    """The record of a job that raised or killed its worker."""
+    return {**_identity(job), "success": False, "reason": f"crashed: {error}",
+            "planning_time_s": None, "error": error, "trials": 0,
+            "execution_successes": 0}  # fmt: skip
 
 
 def _plan_and_execute(job: Job) -> dict[str, Any]:
@@ -200,7 +203,7 @@ def _plan_and_execute(job: Job) -> dict[str, Any]:
         "actions": len(plan.steps),
         "objects_moved": plan.objects_moved,
         "blocked_by": plan.blocked_by[:3],
-        "executions": 0,
+        "trials": 0,
         "execution_successes": 0,
     }
     if not plan.success:
@@ -211,23 +214,8 @@ def _plan_and_execute(job: Job) -> dict[str, Any]:
     if trials == 0:
         return result
     actions = plan_actions(plan)
-    outcomes = []
-    for index, world in enumerate(true_worlds(scene, detection, trials, rng)):
-        try:
-            outcome, _ = execute(world, actions, seed=index)
-        except Exception as error:
-            outcome = {"success": False, "failure": f"crashed: {error!r}"}
-        outcomes.append(outcome)
-    failures = Counter(
-        o.get("failure") or "goal not retrieved" for o in outcomes if not o["success"]
-    )
-    simulated = [o["simulated_s"] for o in outcomes if "simulated_s" in o]
-    result.update(
-        executions=len(outcomes),
-        execution_successes=sum(o["success"] for o in outcomes),
-        execution_failures=dict(failures),
-        execution_simulated_s=round(float(np.mean(simulated)), 2) if simulated else None,
-    )
+    worlds = true_worlds(scene, detection, trials, rng)
+    result.update(outcome_summary([execute_trial(w, actions, i) for i, w in enumerate(worlds)]))
     return result
 
 
@@ -278,12 +266,6 @@ def _local(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]
                 break  # the pool is broken: start a fresh one
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _crashed(job: Job, error: str) -> dict[str, Any]:
-    record = {"key": job.key, "scene": job.case.label, "group": job.case.group,
-              "noise": job.case.noise, "planner": job.planner, "seed": job.seed}  # fmt: skip
-    return {**record, **_failed(error)}
 
 
 def _ray(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]]:
@@ -371,8 +353,6 @@ def run_benchmark(
         raise ValueError(f"trials: {trials}; must be >= 0")
     if not (np.isfinite(time_budget) and time_budget > 0):
         raise ValueError(f"time_budget: {time_budget!r}; must be > 0")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
     cases = _first_scenes(suite.cases, scenes_per_group)
     if noises is not None:
         known = sorted({c.noise for c in suite.cases})
@@ -385,12 +365,13 @@ def run_benchmark(
     log = out.with_name(f"{out.name}.jobs.jsonl")
     done = _load_log(log, config)
     todo = [j for j in jobs if j.key not in done]
+    finished = run_jobs(todo, workers, backend, work)  # checks backend and workers first
     log.parent.mkdir(parents=True, exist_ok=True)
     with (
         log.open("a") as handle,
         tqdm(total=len(jobs), initial=len(jobs) - len(todo), desc=suite.name, unit="job") as bar,
     ):
-        for record in run_jobs(todo, workers, backend, work):
+        for record in finished:
             handle.write(json.dumps({"config": config, **record}) + "\n")
             handle.flush()
             done[record["key"]] = record
@@ -443,7 +424,7 @@ def summarize(records: list[dict[str, Any]], suite: str) -> dict[str, Any]:
     for (planner, group, noise), rows in cells.items():
         times = [r["planning_time_s"] for r in rows if r["planning_time_s"] is not None]
         solved = [r for r in rows if r["success"]]
-        executions = sum(r["executions"] for r in rows)
+        executions = sum(r["trials"] for r in rows)
         successes = sum(r["execution_successes"] for r in rows)
         cell: dict[str, Any] = {
             "scenes": len(rows),
@@ -467,12 +448,12 @@ def summarize(records: list[dict[str, Any]], suite: str) -> dict[str, Any]:
 
 def _figure_row(solved: list[dict[str, Any]]) -> dict[str, Any]:
     if not solved:
-        return {"actions": None, "objects_moved": None, "execution_simulated_s": None}
+        return {"actions": None, "objects_moved": None, "mean_execution_simulated_s": None}
     r = solved[0]
     return {
         "actions": r["actions"],
         "objects_moved": r["objects_moved"],
-        "execution_simulated_s": r.get("execution_simulated_s"),
+        "mean_execution_simulated_s": r.get("mean_execution_simulated_s"),
     }
 
 
@@ -566,8 +547,8 @@ def _figures_markdown(report: dict[str, Any]) -> str:
     ]
     for r in report["records"]:
         moved = ", ".join(r.get("objects_moved") or []) or "-"
-        execution = "-" if not r["executions"] else f"{r['execution_successes']}/{r['executions']}"
-        simulated = r.get("execution_simulated_s")
+        execution = "-" if not r["trials"] else f"{r['execution_successes']}/{r['trials']}"
+        simulated = r.get("mean_execution_simulated_s")
         lines.append(
             f"| {r['scene']} | {r['noise']} | {r['planner']} | "
             f"{'yes' if r['success'] else 'no: ' + _short(r)} | {r.get('actions', '-')} | "

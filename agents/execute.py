@@ -149,13 +149,36 @@ def execute(
     return outcome, frames
 
 
+def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> dict[str, Any]:
+    """One trial's outcome; a trial that crashes is a failed trial, with the error."""
+    try:
+        outcome, _ = execute(world, actions, seed=seed)
+    except Exception as error:
+        outcome = {"success": False, "failure": f"crashed: {error!r}"}
+    return outcome
+
+
+def outcome_summary(outcomes: list[dict[str, Any]]) -> dict[str, Any]:
+    """Trials, successes, failures by reason and mean simulated time of executed trials."""
+    successes = sum(o["success"] for o in outcomes)
+    failures: dict[str, int] = {}
+    for o in outcomes:
+        if not o["success"]:
+            reason = o.get("failure") or "goal not retrieved"
+            failures[reason] = failures.get(reason, 0) + 1
+    sim = [o["simulated_s"] for o in outcomes if "simulated_s" in o]
+    return {
+        "trials": len(outcomes),
+        "execution_successes": successes,
+        "execution_success_rate": successes / len(outcomes) if outcomes else None,
+        "execution_failures": failures,
+        "mean_execution_simulated_s": round(float(np.mean(sim)), 2) if sim else None,
+    }
+
+
 def _work(job: tuple[int, Scene, list[np.ndarray]]) -> tuple[int, dict[str, Any]]:
     index, world, actions = job
-    try:
-        outcome, _ = execute(world, actions, seed=index)
-    except Exception as error:  # a crashed trial is a failed trial, with the error
-        outcome = {"success": False, "failure": f"crashed: {error!r}"}
-    return index, outcome
+    return index, execute_trial(world, actions, seed=index)
 
 
 def _outcomes(jobs: list[Any], workers: int) -> Iterator[tuple[int, dict[str, Any]]]:
@@ -254,18 +277,4 @@ def _trials(
             done[index] = outcome
             bar.update()
     outcomes = [done[i] for i in range(len(worlds))]
-    successes = sum(o["success"] for o in outcomes)
-    failures: dict[str, int] = {}
-    for o in outcomes:
-        if not o["success"]:
-            reason = o.get("failure") or "goal not retrieved"
-            failures[reason] = failures.get(reason, 0) + 1
-    sim = [o["simulated_s"] for o in outcomes if "simulated_s" in o]
-    return {
-        "trials": len(outcomes),
-        "execution_successes": successes,
-        "execution_success_rate": successes / len(outcomes),
-        "execution_failures": failures,
-        "mean_execution_simulated_s": round(float(np.mean(sim)), 2) if sim else None,
-        "trial_outcomes": outcomes,
-    }
+    return {**outcome_summary(outcomes), "trial_outcomes": outcomes}

@@ -529,6 +529,17 @@ def _sweep_directions(ctx: PlanningContext, name: str) -> list[tuple[float, int]
 # --------------------------------------------------------------------------------------------
 # Push-grasp and PickUp
 # --------------------------------------------------------------------------------------------
+def _unfit(spec: ObjectSpec, pushed: bool, lifted: bool) -> str:
+    """Why the hand cannot grasp the object (and push it, and lift it), or "" if it can."""
+    if not spec.graspable:
+        return "wider than the hand can hold"
+    if pushed and not spec.pushable:
+        return "tips over when pushed"
+    if lifted and not spec.liftable:
+        return "too heavy to lift"
+    return ""
+
+
 def push_grasp(
     ctx: PlanningContext, name: str, goal: Goal, avoid: Volume
 ) -> Iterator[ActionResult]:
@@ -536,14 +547,9 @@ def push_grasp(
     belief = ctx.beliefs[name]
     spec = belief.spec
     action = "pickup" if isinstance(goal, Retrieve) else "push-grasp"
-    if not spec.graspable:
-        ctx.fail(name, action, "wider than the hand can hold")
-        return
-    if not spec.pushable:
-        ctx.fail(name, action, "tips over when pushed")
-        return
-    if action == "pickup" and not spec.liftable:
-        ctx.fail(name, action, "too heavy to lift")
+    unfit = _unfit(spec, pushed=True, lifted=action == "pickup")
+    if unfit:
+        ctx.fail(name, action, unfit)
         return
     # The goal is grasped from the widest preshape first: closing from a narrow one pops a
     # tall bottle up out of the hand in simulation (the Table 1 suite at sigma1).
@@ -801,15 +807,18 @@ def static_grasp(
     belief = ctx.beliefs[name]
     spec = belief.spec
     action = "pickup" if isinstance(goal, Retrieve) else "pick-and-place"
-    if not spec.graspable:
-        ctx.fail(name, action, "wider than the hand can hold")
-        return
-    if not spec.liftable:
-        ctx.fail(name, action, "too heavy to lift")
+    unfit = _unfit(spec, pushed=False, lifted=True)
+    if unfit:
+        ctx.fail(name, action, unfit)
         return
     centre = belief.samples[0, :2]
     base = _base_heading(ctx, centre)
     limit = math.radians(ctx.settings.max_heading_deg)
+
+    def still() -> np.ndarray:
+        """nu_o of a static grasp: the samples stay where they are until the fingers close."""
+        return np.stack([belief.samples, belief.samples])
+
     found: list[float] = []
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
@@ -859,9 +868,6 @@ def static_grasp(
                 "lateral_m": lateral,
                 "depth_m": depth,
             }
-
-            def still() -> np.ndarray:
-                return np.stack([belief.samples, belief.samples])
 
             result = _hand_in(
                 ctx,
@@ -1219,8 +1225,8 @@ ACTIONS: dict[str, Callable[[PlanningContext, str, Goal, Volume], Iterator[Actio
 """The manipulation actions Rearrange searches, in the order it tries them."""
 
 CAN_MOVE: dict[str, Callable[[ObjectSpec], bool]] = {
-    "push-grasp": lambda spec: spec.pushable and spec.graspable,
+    "push-grasp": lambda spec: not _unfit(spec, pushed=True, lifted=False),
     "sweep": lambda spec: spec.pushable,
-    "static-grasp": lambda spec: spec.graspable and spec.liftable,
+    "static-grasp": lambda spec: not _unfit(spec, pushed=False, lifted=True),
 }
 """Which objects an action can move at all: the others are obstacles every motion avoids."""

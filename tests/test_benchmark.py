@@ -48,7 +48,7 @@ def test_small_table1_plans_executes_and_writes_table_and_plots(
     assert none_pg["solved"] == 1 and none_pg["executions"] == 1
     assert none_pg["paper_solved"] == 10
     for r in records:
-        assert r["executions"] == (1 if r["success"] else 0)
+        assert r["trials"] == (1 if r["success"] else 0)
     markdown = Path(local_report["plots"][0]).parent / "table1.md"
     text = markdown.read_text()
     assert "| sigma2 | " in text and "(10 / 0.58)" in text  # PG's paper cell beside ours
@@ -67,7 +67,7 @@ def test_ray_backend_gives_the_same_results(local_report: dict[str, Any], tmp_pa
 def _fake(job: Job, **extra: object) -> dict[str, Any]:
     return {"key": job.key, "scene": job.case.label, "group": job.case.group,
             "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
-            "reason": "", "planning_time_s": 0.1, "executions": 0, "execution_successes": 0,
+            "reason": "", "planning_time_s": 0.1, "trials": 0, "execution_successes": 0,
             "error": "", **extra}  # fmt: skip
 
 
