@@ -218,7 +218,8 @@ class PlannerSettings:
     """Search resolution and budgets (the paper's "user defined step sizes", §2.2.6)."""
 
     time_budget: float = 20.0  # s for the whole plan
-    goto_budget: float = 1.0  # s per GoTo request
+    goto_checks: int = 5000  # collision checks per GoTo request (about 1 s here); a count, not
+    # seconds, so that plans do not depend on the machine's load
     heading_step_deg: float = 15.0
     max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
     offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
@@ -228,7 +229,7 @@ class PlannerSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("goto_budget", "heading_step_deg", "sweep_max", "sweep_step_deg"):
+        for name in ("goto_checks", "heading_step_deg", "sweep_max", "sweep_step_deg"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
@@ -411,7 +412,6 @@ class PlanningContext:
     ) -> tuple[np.ndarray | None, str]:
         """`plan_goto` within this plan's budget and seed: (path or None, reason)."""
         self.check_budget()
-        budget = min(self.settings.goto_budget, self.remaining())
         with self.timed("goto"):
             result = plan_goto(
                 start,
@@ -419,10 +419,11 @@ class PlanningContext:
                 free,
                 self.kinematics.lower,
                 self.kinematics.upper,
-                time_budget=max(budget, 1e-3),
+                time_budget=max(self.remaining(), 1e-3),
                 seed=self.settings.seed,
                 resolution=ARM_CHECK_STEP,
                 constraint=constraint,
+                max_checks=self.settings.goto_checks,
             )
         return result.path, result.reason
 

@@ -105,15 +105,19 @@ class _OmplConstraint(ob.Constraint):
 def upright_hand(kinematics: ArmKinematics) -> JointConstraint:
     """The hand's x axis stays vertical: the finger plane horizontal, so a grasped object
     standing upright stays upright, whatever the heading (the 2 horizontal components of the
-    axis are the constraint; their Jacobian is w_i x axis from the angular Jacobian)."""
+    axis are the constraint; their Jacobian is w_i x axis from the angular Jacobian).
+
+    OMPL's projection calls these tens of thousands of times per plan, so each call runs the
+    forward kinematics once (``tcp_pose_and_jacobian``) and writes the cross product out."""
 
     def function(q: np.ndarray) -> np.ndarray:
         return kinematics.fk_tcp(q)[:2, 0].copy()
 
     def jacobian(q: np.ndarray) -> np.ndarray:
-        axis = kinematics.fk_tcp(q)[:3, 0]
-        angular = kinematics.jacobian(q)[3:]
-        return np.cross(angular.T, axis).T[:2]
+        pose, full = kinematics.tcp_pose_and_jacobian(q)
+        a, w = pose[:3, 0], full[3:]
+        # Rows x and y of w_i x a for every joint column i.
+        return np.stack([w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2]])
 
     return JointConstraint(2, function, jacobian)
 
@@ -124,11 +128,12 @@ def _ompl_plan(
     is_free: Callable[[np.ndarray], bool],
     lower: np.ndarray,
     upper: np.ndarray,
-    time_budget: float,
+    stop: Callable[[], bool],
     resolution: float,
     constraint: JointConstraint | None = None,
 ) -> np.ndarray | None:
-    """RRTConnect, then shortcutting; the waypoints, or None if no exact solution was found."""
+    """RRTConnect until ``stop()``, then shortcutting; the waypoints, or None if no exact
+    solution was found."""
     ambient = ob.RealVectorStateSpace(DOF)
     bounds = ob.RealVectorBounds(DOF)
     for i in range(DOF):
@@ -160,7 +165,7 @@ def _ompl_plan(
             state.copy([float(v) for v in q])
         endpoints.append(state)
     setup.setStartAndGoalStates(endpoints[0], endpoints[1])
-    status = setup.solve(time_budget)
+    status = setup.solve(ob.PlannerTerminationCondition(stop))
     if status.getStatus() != ob.PlannerStatus.EXACT_SOLUTION:
         return None
     path = setup.getSolutionPath()
@@ -192,10 +197,16 @@ def plan_goto(
     seed: int = 0,
     resolution: float = 0.01,
     constraint: JointConstraint | None = None,
+    max_checks: int | None = None,
 ) -> GoToResult:
     """Plan a collision-free joint path from start to goal within the joint limits: the
     straight joint-space segment if it is free, else RRTConnect; with a ``constraint``,
     RRTConnect on its manifold (ProjectedStateSpace) and a densely interpolated path.
+
+    The search stops after ``time_budget`` seconds or ``max_checks`` collision checks, whichever
+    comes first. A check budget makes the outcome independent of the machine's speed and load
+    (the same seed gives the same path on a busy CI worker), so planners should bound GoTo by
+    checks and keep the time budget as a cap.
 
     ``is_valid(q)`` is True when configuration q is free. The path is simplified and then every
     straight segment is re-checked so that no joint moves more than ``resolution`` rad between
@@ -224,6 +235,8 @@ def plan_goto(
         error = f"resolution must be > 0 (got {resolution})"
     if not error and seed < 0:
         error = f"seed must be >= 0 (got {seed})"
+    if not error and max_checks is not None and max_checks < 1:
+        error = f"max_checks must be >= 1 (got {max_checks})"
     if error:
         return result(None, error)
     if not is_free(q0):
@@ -243,10 +256,18 @@ def plan_goto(
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
     try:
         _reseed(seed)
-        path = _ompl_plan(q0, q1, is_free, lo, hi, float(time_budget), resolution, constraint)
+        deadline = began + float(time_budget)
+        limit = math.inf if max_checks is None else max_checks
+
+        def stop() -> bool:
+            return checks >= limit or time.perf_counter() >= deadline
+
+        path = _ompl_plan(q0, q1, is_free, lo, hi, stop, resolution, constraint)
     finally:
         ou.setLogLevel(level)
     if path is None:
+        if checks >= limit:
+            return result(None, f"no path found within {max_checks} collision checks")
         return result(None, f"no path found within {time_budget:g} s")
     if not all(is_free(q) for q in interpolate(path, resolution)):
         return result(None, f"simplified path collides when re-checked at {resolution:g} rad")

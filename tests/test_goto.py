@@ -142,6 +142,24 @@ def test_enclosed_goal_has_no_path() -> None:
     assert result.collision_checks > 2
 
 
+def test_check_budget_ends_the_search_whatever_the_time_budget() -> None:
+    def near_start_or_goal(q: np.ndarray) -> bool:
+        return bool(np.max(np.abs(q - Q_A)) < 0.05 or np.array_equal(q, Q_B))
+
+    result = plan_goto(
+        Q_A, Q_B, near_start_or_goal, KIN.lower, KIN.upper, 60.0, max_checks=300
+    )  # fmt: skip
+    assert not result.success
+    assert result.reason == "no path found within 300 collision checks"
+    # OMPL asks its termination condition between iterations; one iteration checks a few states.
+    assert 300 <= result.collision_checks < 400
+
+
+def test_check_budget_must_be_positive() -> None:
+    result = plan_goto(Q_A, Q_B, lambda q: True, KIN.lower, KIN.upper, 1.0, max_checks=0)
+    assert result.reason == "max_checks must be >= 1 (got 0)"
+
+
 def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
     """GoTo on the upright-hand manifold (ProjectedStateSpace) around an obstacle that the
     straight segment would cross: every configuration keeps the finger plane horizontal."""
@@ -164,7 +182,7 @@ def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
 
     upright = upright_hand(kinematics)
     result = plan_goto(
-        start, goal, free, kinematics.lower, kinematics.upper, 5.0, seed=1, constraint=upright
+        start, goal, free, kinematics.lower, kinematics.upper, 60.0, seed=1, constraint=upright
     )
     assert result.success, result.reason
     assert result.path is not None and len(result.path) > 2

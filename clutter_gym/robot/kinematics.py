@@ -173,6 +173,11 @@ class ArmKinematics:
         """Geometric Jacobian (6, 7) of the hand_tcp: linear rows then angular, world frame."""
         return self._jacobian(self._dh_frames(q))
 
+    def tcp_pose_and_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``fk_tcp(q)`` and ``jacobian(q)`` from one pass of the kinematic chain."""
+        frames = self._dh_frames(q)
+        return frames[7] @ self._to_tcp, self._jacobian(frames)
+
     def _jacobian(self, frames: np.ndarray) -> np.ndarray:
         p = (frames[7] @ self._to_tcp)[:3, 3]
         z = frames[:7, :3, 2].T
