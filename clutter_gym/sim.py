@@ -11,7 +11,10 @@ is what bit-identical rollouts need.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+import sys
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,11 +41,28 @@ class Camera:
     fov: float = 50.0
 
 
+@contextmanager
+def _native_stdout_muted() -> Iterator[None]:
+    """Send file descriptor 1 to /dev/null: pybullet's C code prints "argv[0]=" on stdout when
+    it connects, which would land in the middle of a CLI's JSON lines (the benchmark's workers
+    each connect)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 class Simulator:
     """One pybullet world: builds bodies by name, steps, renders, answers contact queries."""
 
     def __init__(self, timestep: float = TIMESTEP, solver_iterations: int = 20) -> None:
-        self._client: BulletClient | None = BulletClient(connection_mode=pybullet.DIRECT)
+        with _native_stdout_muted():
+            self._client: BulletClient | None = BulletClient(connection_mode=pybullet.DIRECT)
         self.timestep = timestep
         self.solver_iterations = solver_iterations
         self._bodies: dict[str, int] = {}

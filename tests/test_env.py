@@ -139,6 +139,15 @@ def test_render_mode_none_returns_none() -> None:
     env.close()
 
 
+def test_making_an_env_prints_nothing_on_stdout(capfd: pytest.CaptureFixture[str]) -> None:
+    """pybullet's native "argv[0]=" must not reach stdout, where CLIs write JSON lines."""
+    capfd.readouterr()
+    env = make(level="none")
+    env.reset(seed=0)
+    env.close()
+    assert capfd.readouterr().out == ""
+
+
 def test_detections_are_noisy_truth_only_in_info() -> None:
     env = make(noise="sigma3")
     obs, info = env.reset(seed=1, options={"scene": CAN_SCENE})
