@@ -218,8 +218,9 @@ class PlannerSettings:
     """Search resolution and budgets (the paper's "user defined step sizes", §2.2.6)."""
 
     time_budget: float = 20.0  # s for the whole plan
-    goto_checks: int = 5000  # collision checks per GoTo request (about 1 s here); a count, not
-    # seconds, so that plans do not depend on the machine's load
+    # Evaluations per GoTo request (collision checks; with a constraint, also its Jacobians):
+    # about 1 s here, and a count, not seconds, so that plans do not depend on the machine's load.
+    goto_evaluations: int = 5000
     heading_step_deg: float = 15.0
     max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
     offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
@@ -229,7 +230,7 @@ class PlannerSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("goto_checks", "heading_step_deg", "sweep_max", "sweep_step_deg"):
+        for name in ("goto_evaluations", "heading_step_deg", "sweep_max", "sweep_step_deg"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
@@ -423,7 +424,7 @@ class PlanningContext:
                 seed=self.settings.seed,
                 resolution=ARM_CHECK_STEP,
                 constraint=constraint,
-                max_checks=self.settings.goto_checks,
+                max_evaluations=self.settings.goto_evaluations,
             )
         return result.path, result.reason
 

@@ -91,14 +91,16 @@ class JointConstraint:
 
 
 class _OmplConstraint(ob.Constraint):
-    def __init__(self, constraint: JointConstraint) -> None:
+    def __init__(self, constraint: JointConstraint, on_jacobian: Callable[[], None]) -> None:
         super().__init__(DOF, constraint.codimension)
         self.constraint = constraint
+        self.on_jacobian = on_jacobian
 
     def function(self, x: np.ndarray, out: np.ndarray) -> None:
         out[:] = self.constraint.function(np.asarray(x, dtype=float))
 
     def jacobian(self, x: np.ndarray, out: np.ndarray) -> None:
+        self.on_jacobian()
         out[:, :] = self.constraint.jacobian(np.asarray(x, dtype=float))
 
 
@@ -131,6 +133,7 @@ def _ompl_plan(
     stop: Callable[[], bool],
     resolution: float,
     constraint: JointConstraint | None = None,
+    on_jacobian: Callable[[], None] = lambda: None,
 ) -> np.ndarray | None:
     """RRTConnect until ``stop()``, then shortcutting; the waypoints, or None if no exact
     solution was found."""
@@ -144,7 +147,7 @@ def _ompl_plan(
         space = ambient
         setup = og.SimpleSetup(space)
     else:
-        ompl_constraint = _OmplConstraint(constraint)
+        ompl_constraint = _OmplConstraint(constraint, on_jacobian)
         space = ob.ProjectedStateSpace(ambient, ompl_constraint)
         setup = og.SimpleSetup(ob.ConstrainedSpaceInformation(space))
     setup.setStateValidityChecker(
@@ -197,22 +200,26 @@ def plan_goto(
     seed: int = 0,
     resolution: float = 0.01,
     constraint: JointConstraint | None = None,
-    max_checks: int | None = None,
+    max_evaluations: int | None = None,
 ) -> GoToResult:
     """Plan a collision-free joint path from start to goal within the joint limits: the
     straight joint-space segment if it is free, else RRTConnect; with a ``constraint``,
     RRTConnect on its manifold (ProjectedStateSpace) and a densely interpolated path.
 
-    The search stops after ``time_budget`` seconds or ``max_checks`` collision checks, whichever
-    comes first. A check budget makes the outcome independent of the machine's speed and load
-    (the same seed gives the same path on a busy CI worker), so planners should bound GoTo by
-    checks and keep the time budget as a cap.
+    The search stops after ``time_budget`` seconds or ``max_evaluations`` evaluations, whichever
+    comes first: collision checks, plus the constraint's Jacobian evaluations when constrained
+    (projecting onto the manifold is what costs there). A count makes the outcome independent of
+    the machine's speed and load (the same seed gives the same path on a busy CI worker), so
+    planners should bound GoTo by evaluations and keep the time budget as a cap. Once the budget
+    is spent every state counts as invalid, which ends an extension in progress at once (OMPL
+    asks its termination condition only between iterations, and one constrained extension can
+    walk the manifold for seconds).
 
     ``is_valid(q)`` is True when configuration q is free. The path is simplified and then every
     straight segment is re-checked so that no joint moves more than ``resolution`` rad between
     checked configurations; the same seed and inputs give the same path."""
     began = time.perf_counter()
-    checks = 0
+    checks = jacobians = 0
 
     def is_free(q: np.ndarray) -> bool:
         nonlocal checks
@@ -235,8 +242,8 @@ def plan_goto(
         error = f"resolution must be > 0 (got {resolution})"
     if not error and seed < 0:
         error = f"seed must be >= 0 (got {seed})"
-    if not error and max_checks is not None and max_checks < 1:
-        error = f"max_checks must be >= 1 (got {max_checks})"
+    if not error and max_evaluations is not None and max_evaluations < 1:
+        error = f"max_evaluations must be >= 1 (got {max_evaluations})"
     if error:
         return result(None, error)
     if not is_free(q0):
@@ -257,17 +264,26 @@ def plan_goto(
     try:
         _reseed(seed)
         deadline = began + float(time_budget)
-        limit = math.inf if max_checks is None else max_checks
+        limit = math.inf if max_evaluations is None else max_evaluations
 
         def stop() -> bool:
-            return checks >= limit or time.perf_counter() >= deadline
+            return checks + jacobians >= limit or time.perf_counter() >= deadline
 
-        path = _ompl_plan(q0, q1, is_free, lo, hi, stop, resolution, constraint)
+        def count_jacobian() -> None:
+            nonlocal jacobians
+            jacobians += 1
+
+        def free_within_budget(q: np.ndarray) -> bool:
+            return not stop() and is_free(q)
+
+        path = _ompl_plan(
+            q0, q1, free_within_budget, lo, hi, stop, resolution, constraint, count_jacobian
+        )
     finally:
         ou.setLogLevel(level)
     if path is None:
-        if checks >= limit:
-            return result(None, f"no path found within {max_checks} collision checks")
+        if checks + jacobians >= limit:
+            return result(None, f"no path found within {max_evaluations} evaluations")
         return result(None, f"no path found within {time_budget:g} s")
     if not all(is_free(q) for q in interpolate(path, resolution)):
         return result(None, f"simplified path collides when re-checked at {resolution:g} rad")

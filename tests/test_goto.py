@@ -142,22 +142,22 @@ def test_enclosed_goal_has_no_path() -> None:
     assert result.collision_checks > 2
 
 
-def test_check_budget_ends_the_search_whatever_the_time_budget() -> None:
+def test_evaluation_budget_ends_the_search_whatever_the_time_budget() -> None:
     def near_start_or_goal(q: np.ndarray) -> bool:
         return bool(np.max(np.abs(q - Q_A)) < 0.05 or np.array_equal(q, Q_B))
 
     result = plan_goto(
-        Q_A, Q_B, near_start_or_goal, KIN.lower, KIN.upper, 60.0, max_checks=300
+        Q_A, Q_B, near_start_or_goal, KIN.lower, KIN.upper, 60.0, max_evaluations=300
     )  # fmt: skip
     assert not result.success
-    assert result.reason == "no path found within 300 collision checks"
-    # OMPL asks its termination condition between iterations; one iteration checks a few states.
-    assert 300 <= result.collision_checks < 400
+    assert result.reason == "no path found within 300 evaluations"
+    # Spent budget makes every state invalid, so the search stops at the 300th check.
+    assert result.collision_checks == 300
 
 
-def test_check_budget_must_be_positive() -> None:
-    result = plan_goto(Q_A, Q_B, lambda q: True, KIN.lower, KIN.upper, 1.0, max_checks=0)
-    assert result.reason == "max_checks must be >= 1 (got 0)"
+def test_evaluation_budget_must_be_positive() -> None:
+    result = plan_goto(Q_A, Q_B, lambda q: True, KIN.lower, KIN.upper, 1.0, max_evaluations=0)
+    assert result.reason == "max_evaluations must be >= 1 (got 0)"
 
 
 def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
@@ -185,6 +185,12 @@ def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
         start, goal, free, kinematics.lower, kinematics.upper, 60.0, seed=1, constraint=upright
     )
     assert result.success, result.reason
+    # The projection's Jacobians count against the evaluation budget, not only the checks.
+    cut = plan_goto(
+        start, goal, free, kinematics.lower, kinematics.upper, 60.0, seed=1, constraint=upright,
+        max_evaluations=2 * result.collision_checks,
+    )  # fmt: skip
+    assert cut.reason == f"no path found within {2 * result.collision_checks} evaluations"
     assert result.path is not None and len(result.path) > 2
     tilt = [float(np.abs(kinematics.fk_tcp(q)[:2, 0]).max()) for q in result.path]
     assert max(tilt) < upright.tolerance

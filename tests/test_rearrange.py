@@ -205,7 +205,7 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
     k = ArmKinematics("right")
     can = belief("can", "soda_can", (1.0, -0.15, 0.0))
     ctx = PlanningContext(
-        SHELF, {"can": can}, PlannerSettings(goto_checks=100_000), k,
+        SHELF, {"can": can}, PlannerSettings(goto_evaluations=100_000), k,
         RobotCollision(k, ArmGeometry()), SHELF.default_goal_region,
     )  # fmt: skip
 
