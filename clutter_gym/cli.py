@@ -51,9 +51,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         args.scene,
         planner=args.planner,
         trials=trials,
-        out=Path(args.json) if args.json else None,
-        gif=Path(args.gif) if args.gif else None,
-        figure=Path(args.figure) if args.figure else None,
+        out=args.json,
+        gif=args.gif,
+        figure=args.figure,
         seed=args.seed,
         time_budget=args.budget,
         samples=args.samples,
@@ -78,8 +78,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     report = run_benchmark(
         args.suite,
         planners=args.planners,
-        out=Path(args.json),
-        markdown=Path(args.md) if args.md else None,
+        out=args.json,
+        markdown=args.md,
         trials=args.trials,
         seed=args.seed,
         time_budget=args.budget,
@@ -87,7 +87,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         backend=args.backend,
         scenes_per_group=args.scenes_per_group,
         noises=tuple(args.noises.split(",")) if args.noises else None,
-        plots=Path(args.plots) if args.plots else None,
+        plots=args.plots,
     )
     for planner, groups in report["summary"].items():
         for group, noises in groups.items():
@@ -101,15 +101,15 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 def _cmd_benchmark_plots(args: argparse.Namespace) -> int:
     from agents.benchmark_plots import write_plots
 
-    report = json.loads(Path(args.json).read_text())
-    for path in write_plots(report, Path(args.out)):
+    report = json.loads(args.json.read_text())
+    for path in write_plots(report, args.out):
         print(f"wrote {path}")
     return 0
 
 
 def _cmd_scene(args: argparse.Namespace) -> int:
     scene = generate_scene(args.level, seed=args.seed, surface=args.surface, noise=args.noise)
-    save_scene(scene, Path(args.out))
+    save_scene(scene, args.out)
     print(json.dumps(scene_to_dict(scene)))
     return 0
 
@@ -125,7 +125,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     finally:
         env.close()
     assert isinstance(frame, np.ndarray)
-    write_png(Path(args.out), frame)
+    write_png(args.out, frame)
     print(f"wrote {args.out}")
     return 0
 
@@ -146,7 +146,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         result = bench_env(args.steps, args.trajectory_steps, args.resets)
     line = json.dumps(result, sort_keys=True)
     if args.json:
-        write_json(Path(args.json), result)
+        write_json(args.json, result)
     print(line)
     return 0
 
@@ -155,7 +155,7 @@ def _cmd_validate_capture(args: argparse.Namespace) -> int:
     from agents.validate_capture import validate
 
     rotations = [float(r) for r in args.rotations.split(",")]
-    report = validate(args.object, args.trials, Path(args.json), rotations, args.workers)
+    report = validate(args.object, args.trials, args.json, rotations, args.workers)
     for rotation in rotations:
         print(
             json.dumps(
@@ -176,8 +176,7 @@ def _cmd_validate_capture(args: argparse.Namespace) -> int:
 def _cmd_capture_region(args: argparse.Namespace) -> int:
     from agents.capture_figure import capture_figure
 
-    validation = Path(args.validation) if args.validation else None
-    capture_figure(args.object, Path(args.out), validation)
+    capture_figure(args.object, args.out, args.validation)
     print(f"wrote {args.out}")
     return 0
 
@@ -208,9 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     plan.add_argument("--execute", action="store_true", help="execute the plan on true worlds")
     plan.add_argument("--trials", type=int, default=100, help="true worlds with --execute")
-    plan.add_argument("--json", default=None, help="write the report here")
-    plan.add_argument("--gif", default=None, help="record one execution as a GIF")
-    plan.add_argument("--figure", default=None, help="write the planning timeline PNG")
+    plan.add_argument("--json", type=Path, default=None, help="write the report here")
+    plan.add_argument("--gif", type=Path, default=None, help="record one execution as a GIF")
+    plan.add_argument("--figure", type=Path, default=None, help="write the planning timeline PNG")
     plan.add_argument("--seed", type=int, default=0, help="detection, samples, worlds, OMPL")
     plan.add_argument("--budget", type=float, default=20.0, help="planning time budget [s]")
     plan.add_argument(
@@ -228,9 +227,11 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="comma-separated: tsr, pg, pushing, pick-and-place (default: the suite's)",
     )
-    benchmark.add_argument("--json", required=True, help="report; jobs log beside it")
-    benchmark.add_argument("--md", default=None, help="write the table as Markdown")
-    benchmark.add_argument("--plots", default=None, help="write PNG plots to this directory")
+    benchmark.add_argument("--json", type=Path, required=True, help="report; jobs log beside it")
+    benchmark.add_argument("--md", type=Path, default=None, help="write the table as Markdown")
+    benchmark.add_argument(
+        "--plots", type=Path, default=None, help="write PNG plots to this directory"
+    )
     benchmark.add_argument("--trials", type=int, default=10, help="true worlds per plan")
     benchmark.add_argument("--seed", type=int, default=0)
     benchmark.add_argument("--budget", type=float, default=20.0, help="planning budget [s]")
@@ -243,8 +244,8 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark.set_defaults(func=_cmd_benchmark)
 
     plots = sub.add_parser("benchmark-plots", help="PNG plots from a benchmark JSON")
-    plots.add_argument("--json", required=True)
-    plots.add_argument("--out", required=True, help="directory")
+    plots.add_argument("--json", type=Path, required=True)
+    plots.add_argument("--out", type=Path, required=True, help="directory")
     plots.set_defaults(func=_cmd_benchmark_plots)
 
     scene = sub.add_parser("scene", help="generate a scene at one of the paper's clutter levels")
@@ -252,12 +253,12 @@ def build_parser() -> argparse.ArgumentParser:
     scene.add_argument("--seed", type=int, required=True)
     scene.add_argument("--surface", choices=tuple(SURFACES), default="table")
     scene.add_argument("--noise", default="sigma2")
-    scene.add_argument("--out", required=True)
+    scene.add_argument("--out", type=Path, required=True)
     scene.set_defaults(func=_cmd_scene)
 
     render = sub.add_parser("render", help="render a scene file to a PNG")
     render.add_argument("--scene", required=True)
-    render.add_argument("--out", required=True)
+    render.add_argument("--out", type=Path, required=True)
     render.set_defaults(func=_cmd_render)
 
     validate = sub.add_parser(
@@ -265,20 +266,22 @@ def build_parser() -> argparse.ArgumentParser:
     )
     validate.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
     validate.add_argument("--trials", type=int, default=1000, help="grid poses per rotation")
-    validate.add_argument("--json", required=True)
+    validate.add_argument("--json", type=Path, required=True)
     validate.add_argument("--rotations", default="0,45", help="scene rotations in degrees")
     validate.add_argument("--workers", type=int, default=2)
     validate.set_defaults(func=_cmd_validate_capture)
 
     figure = sub.add_parser("capture-region", help="plot a push-grasp capture region")
     figure.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
-    figure.add_argument("--out", required=True)
-    figure.add_argument("--validation", default=None, help="JSON of clutter-gym validate-capture")
+    figure.add_argument("--out", type=Path, required=True)
+    figure.add_argument(
+        "--validation", type=Path, default=None, help="JSON of clutter-gym validate-capture"
+    )
     figure.set_defaults(func=_cmd_capture_region)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
     bench.add_argument("target", choices=("env", "capture", "plan"))
-    bench.add_argument("--json", default=None, help="write the result to this file")
+    bench.add_argument("--json", type=Path, default=None, help="write the result to this file")
     bench.add_argument("--steps", type=int, default=2000, help="low-level steps to time")
     bench.add_argument("--trajectory-steps", type=int, default=20)
     bench.add_argument("--resets", type=int, default=1000)
