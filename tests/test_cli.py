@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 from PIL import Image
+from scene_dicts import OUT_OF_REACH, lone_can
 
 from clutter_gym.cli import main
 from clutter_gym.scene import generate_scene, load_scene
@@ -125,13 +126,7 @@ def test_written_files_get_normal_permissions(tmp_path: Path) -> None:
     assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() would, not mkstemp's 0600
 
 
-LONE_CAN = {
-    "format": "clutter-gym-scene/1",
-    "surface": "table",
-    "objects": [{"name": "red_can", "kind": "soda_can", "pose": [0.95, -0.25, 0.0]}],
-    "goal": {"object": "red_can"},
-    "noise": "sigma2",
-}
+LONE_CAN = lone_can("sigma2")
 
 
 def test_plan_executes_on_true_worlds_and_resumes(
@@ -157,9 +152,7 @@ def test_plan_executes_on_true_worlds_and_resumes(
 def test_plan_reports_why_there_is_no_plan(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    far = dict(
-        LONE_CAN, objects=[{"name": "red_can", "kind": "soda_can", "pose": [1.33, 0.65, 0.0]}]
-    )
+    far = lone_can("sigma2", OUT_OF_REACH)
     scene = tmp_path / "far.json"
     scene.write_text(json.dumps(far))
     assert main(["plan", "--scene", str(scene), "--budget", "3"]) == 1

@@ -9,19 +9,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from scene_dicts import OUT_OF_REACH, lone_can
 
 import clutter_gym  # noqa: F401  (registers the env)
 from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.scene import load_scene, scene_from_dict
 from planners.actions import PlannerSettings
 
-LONE_CAN = {
-    "format": "clutter-gym-scene/1",
-    "surface": "table",
-    "objects": [{"name": "red_can", "kind": "soda_can", "pose": [0.95, -0.25, 0.0]}],
-    "goal": {"object": "red_can"},
-    "noise": "sigma3",
-}
+LONE_CAN = lone_can("sigma3")
 
 
 def rollout(
@@ -64,9 +59,7 @@ def test_closed_loop_policy_replans_after_each_action() -> None:
 
 
 def test_policy_without_a_plan_holds_still_and_says_why() -> None:
-    far = dict(
-        LONE_CAN, objects=[{"name": "red_can", "kind": "soda_can", "pose": [1.33, 0.65, 0.0]}]
-    )
+    far = lone_can("sigma3", OUT_OF_REACH)
     env = gym.make("ClutterRetrieve-v0")
     try:
         obs, _ = env.reset(seed=0, options={"scene": scene_from_dict(far)})
