@@ -13,6 +13,21 @@ import matplotlib.pyplot as plt
 
 from agents.benchmark import PAPER_TABLE1, TABLE1_NOISES
 
+REPORT_KEYS = ("suite", "planners", "trials", "time_budget_s", "summary", "records")
+
+
+def check_report(report: object, source: Path) -> dict[str, Any]:
+    """A `clutter-gym benchmark` report, or ValueError naming the file and what it lacks."""
+    if not isinstance(report, dict):
+        raise ValueError(f"--json: {source} is not a clutter-gym benchmark report (not an object)")
+    missing = [key for key in REPORT_KEYS if key not in report]
+    if missing or not isinstance(report["records"], list):
+        raise ValueError(
+            f"--json: {source} is not a clutter-gym benchmark report (it lacks "
+            f"{', '.join(missing) or 'a list of records'})"
+        )
+    return report
+
 
 def write_plots(report: dict[str, Any], directory: Path) -> list[Path]:
     """Write the report's plots into ``directory``; returns their paths."""

@@ -10,7 +10,6 @@ the region of the validated push distance (Fig. 11(a)), when its JSON is given.
 from __future__ import annotations
 
 import io
-import json
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +60,22 @@ def draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any)
     ax.add_patch(PolygonPatch(corners @ np.array([[c, s], [-s, c]]) + [x, y], fill=False, **style))
 
 
-def capture_figure(name: str, out: Path, validation: Path | None = None, seed: int = 0) -> None:
+def check_validation(report: object, source: Path) -> dict[str, Any]:
+    """A `clutter-gym validate-capture` report, or ValueError naming the file."""
+    needed = ("push_distance_m", "trials", "rotation_0deg")
+    if not isinstance(report, dict) or any(key not in report for key in needed):
+        raise ValueError(
+            f"--validation: {source} is not a clutter-gym validate-capture report with the "
+            f"0 deg rotation (it needs the keys {', '.join(needed)})"
+        )
+    return report
+
+
+def capture_figure(
+    name: str, out: Path, validation: dict[str, Any] | None = None, seed: int = 0
+) -> None:
+    """(a) nested regions, (b) sigma3 samples in a region, (c) the physical validation when
+    ``validation`` (a checked `validate-capture` report) is given."""
     kind = resolve_kind(name)
     spec = get_object(kind)
     aperture = default_aperture(spec.footprint)
@@ -93,7 +107,7 @@ def capture_figure(name: str, out: Path, validation: Path | None = None, seed: i
 
     if validation is not None:
         ax = axes[2]
-        report = json.loads(validation.read_text())
+        report = validation
         gx, gy, mask = _region_mask(region, report["push_distance_m"])
         ax.contour(gx, gy, mask, levels=[0.5], colors=["k"], linewidths=1.5)
         # The unrotated scene, and for boxes the theta = 0 slice the contours are drawn for.

@@ -13,8 +13,9 @@ nothing.
 TCP target by (dx, dy, dz) x `EE_STEP` metres and its yaw by dyaw x `YAW_STEP`, sets the hand
 closure to (a[4] + 1) / 2, and simulates `EE_SUBSTEPS` physics steps.
 
-Actions outside the Box bounds are clipped (reported as info["action_clipped"]); actions of the
-wrong shape, or with NaN or inf, raise ValueError before anything touches the world.
+Actions outside the Box bounds are clipped (reported as info["action_clipped"]); actions that are
+not real numbers (strings, dicts, None, complex or object arrays), of the wrong shape, or with NaN
+or inf raise ValueError before anything touches the world.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from collections.abc import Callable
 import numpy as np
 from gymnasium import spaces
 
+from clutter_gym.errors import invalid
 from clutter_gym.robot import herb_model as hm
 from clutter_gym.robot.herb import HandCommand, Herb
 from clutter_gym.robot.kinematics import ArmKinematics
@@ -43,13 +45,27 @@ Substep = Callable[[], bool]
 """Advances physics one step; returns True when the episode has ended (stop executing)."""
 
 
-def check_finite(action: np.ndarray, expected_shape: tuple[int, ...]) -> np.ndarray:
-    array = np.asarray(action, dtype=np.float64)
-    if array.shape != expected_shape:
-        raise ValueError(f"action: shape {array.shape}, expected {expected_shape}")
+def real_array(value: object) -> np.ndarray | None:
+    """`value` as a float64 array, or None unless it holds only integers and floats: numpy would
+    parse strings, drop imaginary parts, or raise a bare TypeError on a dict."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nesting
+        return None
+    return array.astype(np.float64) if array.dtype.kind in "iuf" else None
+
+
+def check_finite(action: object, expected_shape: tuple[int, ...]) -> np.ndarray:
+    """The action as a float64 array, or a ValueError naming `action`: raised before execution,
+    so that a bad action never half-moves the arm."""
+    array = real_array(action)
+    if array is None or array.shape != expected_shape:
+        raise invalid("action", action, f"a real-valued array of shape {expected_shape}")
     if not np.all(np.isfinite(array)):
         bad = np.argwhere(~np.isfinite(array))[0].tolist()
-        raise ValueError(f"action: non-finite value {array[tuple(bad)]} at index {bad}")
+        raise ValueError(
+            f"action: non-finite value {array[tuple(bad)]} at index {bad}; expected finite values"
+        )
     return array
 
 
@@ -62,10 +78,7 @@ class TrajectoryController:
         max_hand_speed: float,
         timestep: float,
     ) -> None:
-        if waypoints < 1:
-            raise ValueError(f"waypoints: {waypoints}; must be an integer >= 1")
-        if not (math.isfinite(max_hand_speed) and max_hand_speed > 0):
-            raise ValueError(f"max_hand_speed: {max_hand_speed}; must be a positive number (m/s)")
+        """`waypoints` (>= 1) and `max_hand_speed` (finite, > 0) come checked from the env."""
         self.herb = herb
         self.kinematics = kinematics
         self.waypoints = waypoints

@@ -23,14 +23,18 @@ True poses are only in `info["true_object_poses"]`, for evaluation.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+import numbers
+import os
+from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from clutter_gym.controllers import EndEffectorDeltaController, TrajectoryController
+from clutter_gym.controllers import EndEffectorDeltaController, TrajectoryController, real_array
+from clutter_gym.errors import invalid, shown
 from clutter_gym.objects import OBJECTS, Footprint, get_object
 from clutter_gym.perception import detect
 from clutter_gym.robot import herb_model as hm
@@ -57,7 +61,7 @@ DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
 WORLD_REACH = 5.0  # m: bounds every position in the world, so the observation spaces are finite
 SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on the surface
 RESET_OPTIONS = ("scene", "level", "arm", "hand")
-"""reset(options=...): scene (Scene, dict or JSON path), level (for a sampled scene), arm (7
+"""reset(options=...), a dict: scene (Scene, dict or JSON path), level (for a sampled scene), arm (7
 start joint angles, default HERB's home; must not touch anything, or reset's info reports the
 failure) and hand ((spread, closure) start command, default open)."""
 MONITOR_EVERY = 8  # physics steps between task checks while a trajectory executes
@@ -79,28 +83,31 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         step_limit: int | None = None,
         camera: Camera | None = None,
     ) -> None:
+        # Every keyword is checked before the Simulator exists: a bad one leaves no pybullet client.
         _check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
         _check_choice("control_mode", control_mode, CONTROL_MODES)
         _check_choice("level", level, (None, *LEVELS))
         _check_choice("surface", surface, tuple(SURFACES))
         _check_choice("reward_type", reward_type, REWARD_TYPES)
+        if camera is not None and not isinstance(camera, Camera):
+            raise invalid("camera", camera, "None or a clutter_gym.sim.Camera")
         self.render_mode = render_mode
         self.control_mode = control_mode
         self.level = level
         self.surface_name = surface
-        self.noise_override = None if noise is None else resolve_noise(noise)
+        self.noise_override = None if noise is None else resolve_noise(noise, "noise")
         self.reward_type: RewardType = reward_type
+        self.waypoints = _integer("waypoints", waypoints, 1)
+        self._max_hand_speed = _positive_number("max_hand_speed", max_hand_speed, "m/s")
         self.step_limit = (
-            DEFAULT_STEP_LIMITS[control_mode] if step_limit is None else int(step_limit)
+            DEFAULT_STEP_LIMITS[control_mode]
+            if step_limit is None
+            else _integer("step_limit", step_limit, 1)
         )
-        if self.step_limit < 1:
-            raise ValueError(f"step_limit: {step_limit}; must be an integer >= 1")
-        self.camera = camera or Camera()
+        self.camera = Camera() if camera is None else camera
 
         self.sim = Simulator()
         self.kinematics = ArmKinematics("right")
-        self.waypoints = waypoints
-        self._max_hand_speed = max_hand_speed
         self._build_world(
             generate_scene("none", seed=0, surface=surface),
             np.asarray(hm.RIGHT_ARM_HOME),
@@ -113,32 +120,22 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         self._sim_steps = 0
         self._ended = False
         self._recording_every = 0
-        self._on_frame: Callable[[int], object] | None = None
-        self._frames: list[np.ndarray] = []
+        self._on_frame: Callable[[np.ndarray], object] | None = None
 
     # --- gymnasium API ----------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Observation, dict[str, Any]]:
+        # Everything is checked, and a given scene loaded, before the RNG or the world changes.
+        seed = None if seed is None else _integer("seed", seed, 0)
+        scene, level, arm, hand = self._reset_options(options)
         super().reset(seed=seed)
-        options = options or {}
-        unknown = set(options) - set(RESET_OPTIONS)
-        if unknown:
-            raise ValueError(f"options: unknown keys {sorted(unknown)}; allowed: {RESET_OPTIONS}")
-        if isinstance(options.get("scene"), Scene):
-            scene = options["scene"]
-        elif options.get("scene") is not None:
-            scene = load_scene(options["scene"])
-        else:
-            level: Level | None = options.get("level", self.level)
-            _check_choice("options['level']", level, (None, *LEVELS))
+        if scene is None:
             if level is None:
                 level = LEVELS[int(self.np_random.integers(len(LEVELS)))]
             scene = generate_scene(
                 level, seed=int(self.np_random.integers(2**31)), surface=self.surface_name
             )
-        arm = self._start_arm(options.get("arm"))
-        hand = self._start_hand(options.get("hand"))
         self._build_world(scene, arm, hand)
         self._steps = 0
         self._ended = False
@@ -175,29 +172,56 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
 
     # --- recording (for GIFs of whole-trajectory steps) -----------------------------------------
     def start_recording(
-        self, every_sim_steps: int = 24, on_frame: Callable[[int], object] | None = None
+        self, on_frame: Callable[[np.ndarray], object], every_sim_steps: int = 24
     ) -> None:
-        """Collect a frame every `every_sim_steps` physics steps while actions execute;
-        `on_frame(sim_steps)` is called after each (progress bars)."""
-        self._recording_every = max(1, int(every_sim_steps))
+        """Render a frame now and every `every_sim_steps` physics steps while actions execute,
+        and hand each to `on_frame` (e.g. `clutter_gym.media.GifStream.add`). Frames are
+        streamed, never kept here: a long rollout would otherwise hold hundreds of them."""
+        every = _integer("every_sim_steps", every_sim_steps, 1)
+        if not callable(on_frame):
+            raise invalid("on_frame", on_frame, "a callable taking an RGB frame (H, W, 3)")
+        self._recording_every = every
         self._on_frame = on_frame
-        self._frames = [self.sim.render(self.camera)]
+        on_frame(self.sim.render(self.camera))
 
-    def stop_recording(self) -> list[np.ndarray]:
-        frames, self._frames, self._recording_every = self._frames, [], 0
-        return frames
+    def stop_recording(self) -> None:
+        self._recording_every = 0
+        self._on_frame = None
 
     # --- internals ----------------------------------------------------------------------------
     @property
     def scene(self) -> Scene:
         return self._scene
 
+    def _reset_options(
+        self, options: object
+    ) -> tuple[Scene | None, Level | None, np.ndarray, HandCommand]:
+        """The checked reset options: the scene (None: sample one at the level), arm and hand."""
+        if options is None:
+            options = {}
+        if not isinstance(options, Mapping):
+            raise invalid("options", options, f"None or a dict with keys from {RESET_OPTIONS}")
+        unknown = set(options) - set(RESET_OPTIONS)
+        if unknown:
+            raise ValueError(
+                f"options: unknown keys {shown(sorted(unknown, key=repr))}; "
+                f"allowed: {RESET_OPTIONS}"
+            )
+        level: Level | None = options.get("level", self.level)
+        _check_choice("options['level']", level, (None, *LEVELS))
+        return (
+            _scene_option(options.get("scene")),
+            level,
+            self._start_arm(options.get("arm")),
+            self._start_hand(options.get("hand")),
+        )
+
     def _start_arm(self, arm: object) -> np.ndarray:
         if arm is None:
             return np.asarray(hm.RIGHT_ARM_HOME, dtype=np.float64)
-        q = np.asarray(arm, dtype=np.float64)
-        if q.shape != (7,) or not np.all(np.isfinite(q)):
-            raise ValueError(f"options['arm']: {arm!r}; expected 7 finite joint angles (rad)")
+        q = real_array(arm)
+        if q is None or q.shape != (7,) or not np.all(np.isfinite(q)):
+            raise invalid("options['arm']", arm, "7 finite joint angles (rad)")
         lower, upper = self.kinematics.lower, self.kinematics.upper
         for i in np.flatnonzero((q < lower) | (q > upper)):
             raise ValueError(
@@ -210,11 +234,9 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     def _start_hand(hand: object) -> HandCommand:
         if hand is None:
             return HandCommand()
-        values = np.asarray(hand, dtype=np.float64)
-        if values.shape != (2,) or not np.all((values >= 0.0) & (values <= 1.0)):
-            raise ValueError(
-                f"options['hand']: {hand!r}; expected (spread, closure), each in [0, 1]"
-            )
+        values = real_array(hand)
+        if values is None or values.shape != (2,) or not np.all((values >= 0.0) & (values <= 1.0)):
+            raise invalid("options['hand']", hand, "(spread, closure), each in [0, 1]")
         return HandCommand(spread=float(values[0]), closure=float(values[1]))
 
     def _build_world(self, scene: Scene, arm: np.ndarray, hand: HandCommand) -> None:
@@ -250,10 +272,8 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     def _substep(self) -> bool:
         self.sim.step()
         self._sim_steps += 1
-        if self._recording_every and self._sim_steps % self._recording_every == 0:
-            self._frames.append(self.sim.render(self.camera))
-            if self._on_frame is not None:
-                self._on_frame(self._sim_steps)
+        if self._on_frame is not None and self._sim_steps % self._recording_every == 0:
+            self._on_frame(self.sim.render(self.camera))
         # Long trajectories stop early once the episode is decided; an ee_delta step is only
         # 10 physics steps and is evaluated at its end.
         if self.control_mode != "trajectory" or self._sim_steps % MONITOR_EVERY:
@@ -349,9 +369,42 @@ def _observation_space(m: int) -> spaces.Dict:
     )
 
 
-def _check_choice(field: str, value: object, allowed: tuple[object, ...]) -> None:
-    if value not in allowed:
-        raise ValueError(f"{field}: {value!r} is not allowed; choose one of {list(allowed)}")
+def _check_choice(field: str, value: object, allowed: tuple[str | None, ...]) -> None:
+    """Only a str (or None) is looked up: `in` compares an array element-wise, so a
+    one-element array would pass and a longer one would raise numpy's ambiguity error."""
+    if not (value is None or isinstance(value, str)) or value not in allowed:
+        raise invalid(field, value, "one of " + ", ".join(map(repr, allowed)))
+
+
+def _integer(field: str, value: object, minimum: int) -> int:
+    """A Python or numpy integer >= `minimum`; not a bool or a float, which int() would
+    silently turn into 1 or truncate (2.7 steps -> 2)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise invalid(field, value, f"an integer >= {minimum}")
+    return int(value)
+
+
+def _positive_number(field: str, value: object, unit: str) -> float:
+    """A finite Python or numpy real > 0; not a bool or a string."""
+    number = float(value) if isinstance(value, numbers.Real) else math.nan
+    if isinstance(value, bool) or not (math.isfinite(number) and number > 0):
+        raise invalid(field, value, f"a finite number > 0 ({unit})")
+    return number
+
+
+def _scene_option(scene: object) -> Scene | None:
+    """The reset scene, loaded now so that a bad file fails before anything changes; the
+    scene module's errors get the option's name in front."""
+    if scene is None or isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Mapping | os.PathLike) or (isinstance(scene, str) and scene):
+        try:
+            return load_scene(scene)
+        except ValueError as err:
+            raise ValueError(f"options['scene']: {err}") from err
+    raise invalid(
+        "options['scene']", scene, "None, a Scene, a scene dict or a non-empty JSON file path"
+    )
 
 
 def _extents(footprint: Footprint) -> tuple[float, float]:

@@ -15,21 +15,27 @@ A scene is stored as JSON (format ``clutter-gym-scene/1``)::
     }
 
 * ``surface``: ``"table"`` or ``"shelf"`` (see ``clutter_gym.world``).
-* ``objects``: 1 to ``MAX_OBJECTS`` objects with unique names; ``kind`` is a key of
+* ``objects``: 1 to ``MAX_OBJECTS`` objects with unique names (printable, 1 to
+  ``MAX_NAME_LENGTH`` characters); ``kind`` is a key of
   ``clutter_gym.objects.OBJECTS``; ``pose`` is ``[x, y, theta]`` of the object's base centre on
   the surface top, in the robot's base frame (metres, radians).
 * ``goal.object``: the name of the (graspable) object to retrieve.  ``goal.region`` (optional,
-  default: the surface's ``default_goal_region``) is where the object must end up;
-  ``goal.success`` (optional, default: the surface's) is ``"lift"`` (held above the surface
-  inside the region) or ``"region"`` (brought into the region, e.g. the front of the shelf).
+  default: the surface's ``default_goal_region``) is where the object must end up: a rectangle
+  of non-zero area that overlaps the surface top (``Surface.bounds``).  ``goal.success``
+  (optional, default: the surface's) is ``"lift"`` (held above the surface inside the region)
+  or ``"region"`` (brought into the region, e.g. the front of the shelf); for ``"region"`` the
+  goal object must start outside the region, or the task would be solved at reset.
 * ``noise`` (optional, default ``"sigma2"``): the pose uncertainty of perception, either a name
-  of ``NOISE_LEVELS`` or ``{"xy": sigma_xy, "theta": sigma_theta}`` (m, rad), the standard
-  deviations of Gaussian noise on the detected poses.
+  of ``NOISE_LEVELS`` or ``{"xy": sigma_xy, "theta": sigma_theta}``, the standard deviations
+  of Gaussian noise on the detected poses: sigma_xy in [0, 1] m and sigma_theta in [0, pi] rad
+  (``MAX_SIGMA``), beyond which perception is meaningless and observations lose precision.
 
 Loading validates everything: every error is a ``ValueError`` whose message starts with the
 JSON path of the offending field (e.g. ``objects[2].pose``) and says what was found and what
-is allowed.  Beyond types, scenes whose objects interpenetrate or whose footprints leave the
-surface are rejected, since the simulator would resolve them by launching objects.
+is allowed; values are shown abbreviated, so hostile input (huge numbers, deep nesting,
+control characters) cannot flood or garble the message.  Beyond types, scenes whose objects
+interpenetrate or whose footprints leave the surface are rejected, since the simulator would
+resolve them by launching objects.
 
 ``generate_scene`` draws random scenes at the paper's three clutter levels (§3.1.2); the ten
 fixed scenes per level of ``paper_suite`` are committed under ``scenes/paper`` and regenerated
@@ -42,6 +48,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,12 +57,14 @@ from typing import Any, Literal
 import fcl
 import numpy as np
 
+from clutter_gym.errors import invalid, shown
 from clutter_gym.files import atomic_write_text
 from clutter_gym.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
 from clutter_gym.world import SURFACES, Region, Surface
 
 SCENE_FORMAT = "clutter-gym-scene/1"
 MAX_OBJECTS = 8
+MAX_NAME_LENGTH = 64
 Level = Literal["none", "medium", "high"]
 LEVELS: tuple[Level, ...] = ("none", "medium", "high")
 Success = Literal["lift", "region"]
@@ -72,6 +81,9 @@ NOISE_LEVELS: dict[str, tuple[float, float]] = {
 """Perception noise ``(sigma_xy [m], sigma_theta [rad])``: the paper's σ1–σ4, its real
 detector (§3.1) and the high-uncertainty example of its Fig. 2."""
 DEFAULT_NOISE = "sigma2"
+MAX_SIGMA: dict[str, float] = {"xy": 1.0, "theta": math.pi}
+"""Upper bounds of the noise standard deviations (m, rad)."""
+_SIGMA_RANGES = {"xy": "[0, 1] m", "theta": "[0, pi] rad"}
 _NOISE_EXPECTED = (
     ", ".join(repr(n) for n in NOISE_LEVELS) + ' or {"xy": sigma_xy, "theta": sigma_theta}'
 )
@@ -87,7 +99,9 @@ two footprints are closer than its lower end."""
 POSE_DECIMALS = 4
 """Generated poses are rounded (0.1 mm, 0.1 mrad) so the committed JSON stays readable."""
 
-PAPER_SUITE_DIR = Path(__file__).parent / "scenes" / "paper"
+SCENES_DIR = Path(__file__).parent / "scenes"
+"""The scenes shipped with the package: the demo, the paper's figures and suites."""
+PAPER_SUITE_DIR = SCENES_DIR / "paper"
 PAPER_SUITE_SIZE = 10
 PAPER_SUITE_SEED = 1000
 
@@ -106,17 +120,13 @@ _PLACEMENT_ATTEMPTS = 100
 _BISECTION_STEPS = 30
 
 
-def _invalid(path: str, got: object, expected: str) -> ValueError:
-    return ValueError(f"{path}: got {got!r}; expected {expected}")
-
-
 def _allowed(names: Sequence[str] | Mapping[str, Any]) -> str:
     return "one of " + ", ".join(repr(n) for n in sorted(names))
 
 
-def _surface(name: str, path: str) -> Surface:
-    if name not in SURFACES:
-        raise _invalid(path, name, _allowed(SURFACES))
+def _surface(name: object, path: str) -> Surface:
+    if not isinstance(name, str) or name not in SURFACES:
+        raise invalid(path, name, _allowed(SURFACES))
     return SURFACES[name]
 
 
@@ -153,6 +163,8 @@ class Scene:
 
     def __post_init__(self) -> None:
         _validate(self)
+        if not isinstance(self.noise, str):  # e.g. a list or mapping: store the canonical pair
+            object.__setattr__(self, "noise", resolve_noise(self.noise))
 
     @property
     def noise_sigma(self) -> tuple[float, float]:
@@ -167,77 +179,120 @@ class Scene:
 def _validate(scene: Scene) -> None:
     surface = _surface(scene.surface, "surface")
     _validate_objects(scene.objects)
-    _validate_goal(scene)
+    _validate_goal(scene, surface)
     resolve_noise(scene.noise)
     _validate_support(scene.objects, surface)
     _validate_interpenetration(scene.objects, surface)
+    _validate_unsolved(scene)
 
 
 def _validate_objects(objects: tuple[ObjectPlacement, ...]) -> None:
+    if not isinstance(objects, tuple) or not all(isinstance(o, ObjectPlacement) for o in objects):
+        raise invalid("objects", objects, "a tuple of ObjectPlacement")
     if not 1 <= len(objects) <= MAX_OBJECTS:
         raise ValueError(f"objects: got {len(objects)} objects; expected 1 to {MAX_OBJECTS}")
     first_index: dict[str, int] = {}
     for i, obj in enumerate(objects):
-        if not isinstance(obj.name, str) or not obj.name:
-            raise _invalid(f"objects[{i}].name", obj.name, "a non-empty string")
-        if obj.name in first_index:
-            raise _invalid(
+        name = _name(obj.name, f"objects[{i}].name")
+        if name in first_index:
+            raise invalid(
                 f"objects[{i}].name",
-                obj.name,
-                f"a unique name (already used by objects[{first_index[obj.name]}])",
+                name,
+                f"a unique name (already used by objects[{first_index[name]}])",
             )
-        first_index[obj.name] = i
-        if obj.kind not in OBJECTS:
-            raise _invalid(f"objects[{i}].kind", obj.kind, _allowed(OBJECTS))
-        if len(obj.pose) != 3 or not all(math.isfinite(v) for v in obj.pose):
-            raise _invalid(f"objects[{i}].pose", obj.pose, "[x, y, theta] of finite numbers")
+        first_index[name] = i
+        if not isinstance(obj.kind, str) or obj.kind not in OBJECTS:
+            raise invalid(f"objects[{i}].kind", obj.kind, _allowed(OBJECTS))
+        _numbers(obj.pose, f"objects[{i}].pose", 3, "[x, y, theta] of finite numbers")
 
 
-def _validate_goal(scene: Scene) -> None:
+def _validate_goal(scene: Scene, surface: Surface) -> None:
     goal = scene.goal
+    if not isinstance(goal, GoalSpec):
+        raise invalid("goal", goal, "a GoalSpec")
     names = [o.name for o in scene.objects]
-    if goal.object not in names:
-        raise _invalid("goal.object", goal.object, "the name of a scene object: " + _allowed(names))
+    if _name(goal.object, "goal.object") not in names:
+        raise invalid("goal.object", goal.object, "the name of a scene object: " + _allowed(names))
     spec = scene.goal_placement.spec
     if not spec.graspable:
         graspable = [k for k, s in OBJECTS.items() if s.graspable]
-        raise _invalid(
+        raise invalid(
             "goal.object",
             goal.object,
             f"a graspable object, not a {spec.kind} (graspable kinds: {', '.join(graspable)})",
         )
-    if goal.success not in SUCCESS_MODES:
-        raise _invalid("goal.success", goal.success, _allowed(SUCCESS_MODES))
+    if not isinstance(goal.success, str) or goal.success not in SUCCESS_MODES:
+        raise invalid("goal.success", goal.success, _allowed(SUCCESS_MODES))
     if goal.success == "lift" and not spec.liftable:
-        raise _invalid(
+        raise invalid(
             "goal.object",
             goal.object,
             f"a liftable object for success 'lift', not a {spec.kind} (use success 'region')",
         )
-    if len(goal.region) != 2:
-        raise _invalid("goal.region", goal.region, "(x range, y range)")
-    for axis, bounds in zip("xy", goal.region, strict=True):
+    _validate_region(goal.region, surface)
+
+
+def _validate_region(region: object, surface: Surface) -> None:
+    """A rectangle with area that overlaps the surface top: anywhere else the goal object
+    could never be placed, so no episode could succeed."""
+    if not isinstance(region, tuple | list) or len(region) != 2:
+        raise invalid("goal.region", region, "(x range, y range)")
+    x_min, x_max, y_min, y_max = surface.bounds
+    tops = {"x": (x_min, x_max), "y": (y_min, y_max)}
+    for axis, bounds in zip("xy", region, strict=True):
         path = f"goal.region.{axis}"
-        if len(bounds) != 2 or not all(math.isfinite(v) for v in bounds):
-            raise _invalid(path, bounds, "[min, max] of finite numbers")
-        if bounds[0] > bounds[1]:
-            raise _invalid(path, bounds, "[min, max] with min <= max")
+        low, high = _numbers(bounds, path, 2, "[min, max] of finite numbers")
+        if low >= high:
+            raise invalid(path, bounds, "[min, max] with min < max (a region with area)")
+        top_low, top_high = tops[axis]
+        if high <= top_low or low >= top_high:
+            raise invalid(
+                path,
+                bounds,
+                f"a range overlapping the {surface.name} top's {axis} range "
+                f"[{top_low}, {top_high}] (Surface.bounds)",
+            )
 
 
-def resolve_noise(noise: str | Sequence[float], path: str = "noise") -> tuple[float, float]:
-    """``(sigma_xy, sigma_theta)`` of a level name or a custom pair; errors name the field."""
+def _validate_unsolved(scene: Scene) -> None:
+    """A "region" goal whose object starts inside the region would succeed at reset (the
+    task's test: the base centre inside the region, bounds included)."""
+    (x_min, x_max), (y_min, y_max) = scene.goal.region
+    x, y, _ = scene.goal_placement.pose
+    if scene.goal.success == "region" and x_min <= x <= x_max and y_min <= y <= y_max:
+        raise ValueError(
+            f"goal.region: got x [{x_min}, {x_max}], y [{y_min}, {y_max}], but the goal object "
+            f"{scene.goal.object!r} already stands inside it at ({x}, {y}), so success "
+            "'region' would hold at reset; expected a region the goal object starts outside of"
+        )
+
+
+def resolve_noise(
+    noise: str | Sequence[float] | Mapping[str, float], path: str = "noise"
+) -> tuple[float, float]:
+    """``(sigma_xy, sigma_theta)`` of a level name, a pair or a ``{"xy", "theta"}`` mapping.
+
+    Every other input is a ``ValueError`` naming ``path``, since the env passes user input
+    straight through.  Sigmas are bounded (``MAX_SIGMA``) so observations stay finite in float32.
+    """
     if isinstance(noise, str):
         if noise not in NOISE_LEVELS:
-            raise _invalid(path, noise, _allowed(NOISE_LEVELS) + ' or {"xy": .., "theta": ..}')
+            raise invalid(path, noise, _allowed(NOISE_LEVELS) + ' or {"xy": .., "theta": ..}')
         return NOISE_LEVELS[noise]
-    values = tuple(noise)
-    if len(values) != 2:
-        raise _invalid(path, noise, "a level name or a pair (sigma_xy, sigma_theta)")
-    for key, sigma in zip(("xy", "theta"), values, strict=True):
-        number = isinstance(sigma, (int, float)) and not isinstance(sigma, bool)
-        if not (number and math.isfinite(sigma) and sigma >= 0):
-            raise _invalid(f"{path}.{key}", sigma, "a finite standard deviation >= 0")
-    return float(values[0]), float(values[1])
+    if isinstance(noise, Mapping):
+        entry = _mapping(noise, path, tuple(MAX_SIGMA))
+        values = tuple(entry[key] for key in MAX_SIGMA)
+    elif isinstance(noise, list | tuple) and len(noise) == 2:
+        values = tuple(noise)
+    else:
+        raise invalid(path, noise, f"a pair (sigma_xy, sigma_theta), {_NOISE_EXPECTED}")
+    sigmas = []
+    for (key, limit), value in zip(MAX_SIGMA.items(), values, strict=True):
+        sigma = _number(value, f"{path}.{key}")
+        if not 0 <= sigma <= limit:
+            raise invalid(f"{path}.{key}", value, f"a standard deviation in {_SIGMA_RANGES[key]}")
+        sigmas.append(sigma)
+    return sigmas[0], sigmas[1]
 
 
 def _validate_support(objects: tuple[ObjectPlacement, ...], surface: Surface) -> None:
@@ -285,40 +340,60 @@ def _validate_interpenetration(objects: tuple[ObjectPlacement, ...], surface: Su
 # --- JSON ---------------------------------------------------------------------------------
 
 
+_KEY = re.compile(r"[A-Za-z0-9_]{1,64}")
+"""An unknown key of this form is named as a field path; any other is shown abbreviated after
+the path of its object, so that messages still start with a well-formed path."""
+
+
 def _mapping(
     value: object, path: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
 ) -> Mapping[str, Any]:
     prefix = f"{path}." if path else ""
     if not isinstance(value, Mapping):
-        raise _invalid(path or "scene", value, "a JSON object")
+        raise invalid(path or "scene", value, "a JSON object")
     for key in required:
         if key not in value:
             raise ValueError(f"{prefix}{key}: missing required key")
-    extra = sorted(str(k) for k in value if k not in required + optional)
+    allowed = required + optional
+    extra = [k for k in value if k not in allowed]
     if extra:
-        raise ValueError(
-            f"{prefix}{extra[0]}: unknown key; allowed keys: {', '.join(required + optional)}"
+        where = (
+            f"{prefix}{extra[0]}: unknown key"
+            if isinstance(extra[0], str) and _KEY.fullmatch(extra[0])
+            else f"{path or 'scene'}: unknown key {shown(extra[0])}"
         )
+        raise ValueError(f"{where}; allowed keys: {', '.join(allowed)}")
     return value
 
 
 def _string(value: object, path: str) -> str:
     if not isinstance(value, str):
-        raise _invalid(path, value, "a string")
+        raise invalid(path, value, "a string")
+    return value
+
+
+def _name(value: object, path: str) -> str:
+    """Names end up in messages, logs and observations: no control characters."""
+    if not (isinstance(value, str) and 1 <= len(value) <= MAX_NAME_LENGTH and value.isprintable()):
+        raise invalid(path, value, f"a printable string of 1 to {MAX_NAME_LENGTH} characters")
     return value
 
 
 def _number(value: object, path: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _invalid(path, value, "a number")
-    if not math.isfinite(value):
-        raise _invalid(path, value, "a finite number")
-    return float(value)
+        raise invalid(path, value, "a number")
+    try:
+        number = float(value)
+    except OverflowError:  # an int beyond the float range
+        raise invalid(path, value, "a finite number (within ±1.8e308)") from None
+    if not math.isfinite(number):
+        raise invalid(path, value, "a finite number")
+    return number
 
 
 def _numbers(value: object, path: str, length: int, what: str) -> tuple[float, ...]:
     if not isinstance(value, list | tuple) or len(value) != length:
-        raise _invalid(path, value, what)
+        raise invalid(path, value, what)
     return tuple(_number(v, f"{path}[{k}]") for k, v in enumerate(value))
 
 
@@ -330,12 +405,12 @@ def _range(value: object, path: str) -> tuple[float, float]:
 def scene_from_dict(d: Mapping[str, Any]) -> Scene:
     """Parse and validate a scene from its JSON form (see the module docstring)."""
     top = _mapping(d, "", ("format", "surface", "objects", "goal"), ("noise",))
-    if top["format"] != SCENE_FORMAT:
-        raise _invalid("format", top["format"], repr(SCENE_FORMAT))
-    surface = _surface(_string(top["surface"], "surface"), "surface")
+    if not isinstance(top["format"], str) or top["format"] != SCENE_FORMAT:
+        raise invalid("format", top["format"], repr(SCENE_FORMAT))
+    surface = _surface(top["surface"], "surface")
     raw_objects = top["objects"]
     if not isinstance(raw_objects, list):
-        raise _invalid("objects", raw_objects, "a list of objects")
+        raise invalid("objects", raw_objects, "a list of objects")
     objects = []
     for i, raw in enumerate(raw_objects):
         path = f"objects[{i}]"
@@ -343,7 +418,7 @@ def scene_from_dict(d: Mapping[str, Any]) -> Scene:
         x, y, theta = _numbers(entry["pose"], f"{path}.pose", 3, "[x, y, theta]")
         objects.append(
             ObjectPlacement(
-                name=_string(entry["name"], f"{path}.name"),
+                name=_name(entry["name"], f"{path}.name"),
                 kind=_string(entry["kind"], f"{path}.kind"),
                 pose=(x, y, theta),
             )
@@ -358,22 +433,16 @@ def scene_from_dict(d: Mapping[str, Any]) -> Scene:
         )
     success = _string(goal.get("success", surface.success), "goal.success")
     if success not in SUCCESS_MODES:
-        raise _invalid("goal.success", success, _allowed(SUCCESS_MODES))
-    noise: str | tuple[float, float] = DEFAULT_NOISE
-    if "noise" in top and isinstance(top["noise"], Mapping):
-        raw_noise = _mapping(top["noise"], "noise", ("xy", "theta"))
-        noise = (_number(raw_noise["xy"], "noise.xy"), _number(raw_noise["theta"], "noise.theta"))
-    elif "noise" in top:
-        if not isinstance(top["noise"], str):
-            raise _invalid("noise", top["noise"], _NOISE_EXPECTED)
-        noise = top["noise"]
+        raise invalid("goal.success", success, _allowed(SUCCESS_MODES))
+    raw_noise = top.get("noise", DEFAULT_NOISE)
+    if not isinstance(raw_noise, str | Mapping):
+        raise invalid("noise", raw_noise, _NOISE_EXPECTED)
+    sigma = resolve_noise(raw_noise, "noise")
     return Scene(
         surface=surface.name,
         objects=tuple(objects),
-        goal=GoalSpec(
-            object=_string(goal["object"], "goal.object"), region=region, success=success
-        ),
-        noise=noise,
+        goal=GoalSpec(object=_name(goal["object"], "goal.object"), region=region, success=success),
+        noise=raw_noise if isinstance(raw_noise, str) else sigma,
     )
 
 
@@ -411,15 +480,40 @@ def scene_to_json(scene: Scene) -> str:
 
 
 def load_scene(source: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
-    """Load a scene from a JSON file or from its already-parsed dict."""
+    """Load a scene from a JSON file or from its already-parsed dict.
+
+    Every failure, including an unreadable file, is a ``ValueError`` naming the file.
+    """
     if isinstance(source, Mapping):
         return scene_from_dict(source)
-    path = Path(source)
+    name = os.fspath(source) if isinstance(source, str | os.PathLike) else None
+    if not isinstance(name, str):
+        raise invalid("scene", source, "the path of a JSON scene file or a scene dict")
+    if not name:
+        raise ValueError("scene: the file path is empty; expected the path of a JSON scene file")
+    path = Path(name)
     try:
-        data = json.loads(path.read_text())
-        return scene_from_dict(data)
-    except json.JSONDecodeError as err:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path}: is a directory, not a scene file") from None
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"{path}: not UTF-8 text (byte {err.start}: {err.reason}); scene files are UTF-8 JSON"
+        ) from None
+    except (OSError, ValueError) as err:  # ValueError: e.g. a NUL byte in the path
+        raise ValueError(f"{path}: cannot be read: {err}") from err
+    try:
+        data = json.loads(text)
+    except RecursionError:
+        raise ValueError(
+            f"{path}: not valid JSON: nested too deeply (beyond Python's recursion limit)"
+        ) from None
+    except ValueError as err:  # a syntax error, or an integer too long to convert
         raise ValueError(f"{path}: not valid JSON: {err}") from err
+    try:
+        return scene_from_dict(data)
     except ValueError as err:
         raise ValueError(f"{path}: {err}") from err
 
@@ -525,7 +619,7 @@ def generate_scene(
     inside the surface's workspace.
     """
     if level not in LEVELS:
-        raise _invalid("level", level, _allowed(LEVELS))
+        raise invalid("level", level, _allowed(LEVELS))
     world = _surface(surface, "surface")
     rng = np.random.default_rng(seed)
     kinds = list(_CLUTTER_WEIGHTS)
@@ -555,6 +649,19 @@ def generate_scene(
     )
 
 
+# --- shipped scenes ---------------------------------------------------------------------
+
+
+def shipped_scene(name: str) -> Path:
+    """The path of a scene shipped with the package, by its name under ``scenes/`` without
+    ``.json`` (e.g. ``"demo"``, ``"figures/fig3_can_box_dumbbell"``, ``"paper/high_03"``):
+    usable from any working directory, unlike a path relative to the source tree."""
+    path = SCENES_DIR / f"{name}.json"
+    if not path.is_file():
+        raise ValueError(f"scene: {shown(name)} is not a shipped scene (see {SCENES_DIR})")
+    return path
+
+
 # --- paper suite --------------------------------------------------------------------------
 
 
@@ -567,7 +674,7 @@ def _suite_path(directory: Path, surface: str, level: str, index: int) -> Path:
 def paper_suite(level: Level, surface: str = "table") -> list[Scene]:
     """The ten fixed scenes of a clutter level, as in the paper's Table 1."""
     if level not in LEVELS:
-        raise _invalid("level", level, _allowed(LEVELS))
+        raise invalid("level", level, _allowed(LEVELS))
     _surface(surface, "surface")
     return [
         load_scene(_suite_path(PAPER_SUITE_DIR, surface, level, i)) for i in range(PAPER_SUITE_SIZE)
