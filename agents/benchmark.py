@@ -18,20 +18,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import platform
 import statistics
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from agents.execute import (
     detect_scene,
@@ -41,8 +36,9 @@ from agents.execute import (
     plan_from_detection,
     true_worlds,
 )
+from agents.jobs import JobSpec, config_digest, run_jobs
 from clutter_gym.files import atomic_write_text
-from clutter_gym.scene import load_scene, resolve_noise
+from clutter_gym.scene import load_scene, resolve_noise, shipped_scene
 from planners.actions import PlannerSettings
 from planners.rearrange import plan_rows, planner_kind
 
@@ -64,7 +60,7 @@ PAPER_TABLE1: dict[tuple[str, str], tuple[tuple[int, float], ...]] = {
     ("pg", "medium"): ((10, 0.04), (10, 1.17), (10, 5.17), (0, 3.91)),
     ("pg", "high"): ((8, 1.98), (5, 12.93), (3, 28.16), (0, 7.46)),
 }
-"""Table 1 of the paper (`../shared/paper/RESULTS.md`): (scenes solved of 10, mean planning
+"""Table 1 of the paper (Dogar & Srinivasa): (scenes solved of 10, mean planning
 time [s]) per (planner, clutter level), at sigma1-sigma4. Reference data for the report."""
 
 
@@ -72,7 +68,7 @@ time [s]) per (planner, clutter level), at sigma1-sigma4. Reference data for the
 class Case:
     """One scene at one noise level; ``group`` is the clutter level or the figure."""
 
-    scene: str  # path of the scene JSON
+    scene: Path  # the scene JSON
     label: str  # e.g. "high_03"
     group: str
     noise: str
@@ -108,13 +104,9 @@ class Job:
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
 
 
-def _scene_path(relative: str) -> str:
-    return str(resources.files("clutter_gym").joinpath(f"scenes/{relative}.json"))
-
-
 def table1_suite() -> Suite:
     cases = tuple(
-        Case(_scene_path(f"paper/{level}_{k:02d}"), f"{level}_{k:02d}", level, noise)
+        Case(shipped_scene(f"paper/{level}_{k:02d}"), f"{level}_{k:02d}", level, noise)
         for level in CLUTTER_LEVELS
         for k in range(10)
         for noise in TABLE1_NOISES
@@ -130,7 +122,7 @@ def table1_suite() -> Suite:
 def fig15_suite() -> Suite:
     cases = []
     for name in FIGURE_SCENES:
-        path = _scene_path(name)
+        path = shipped_scene(name)
         noise = load_scene(path).noise
         if not isinstance(noise, str):
             raise ValueError(f"{path}: noise must be a level name for the suite")
@@ -155,16 +147,15 @@ def get_suite(name: str) -> Suite:
         raise ValueError(f"suite: {name!r} is unknown; allowed: {', '.join(SUITES)}") from None
 
 
-def parse_planners(text: str | None, suite: Suite) -> tuple[str, ...]:
-    """Comma-separated planner names (default: the suite's); unknown names list the valid."""
-    if not text:
+def check_planners(names: Sequence[str] | None, suite: Suite) -> tuple[str, ...]:
+    """The planners to run (default: the suite's); an unknown name lists the valid ones."""
+    if names is None:
         return suite.planners
-    names = tuple(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
     if not names:
-        raise ValueError(f"planners: {text!r} names no planner")
+        raise ValueError("planners: none given; name at least one")
     for name in names:
         planner_kind(name)
-    return names
+    return tuple(dict.fromkeys(names))
 
 
 # --------------------------------------------------------------------------------------------
@@ -220,120 +211,15 @@ def _plan_and_execute(job: Job) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------------------------
-# Backends
-# --------------------------------------------------------------------------------------------
-Work = Callable[[Job], dict[str, Any]]
-
-
-def _local(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]]:
-    """A spawn process pool with at most ``workers`` jobs in flight. A worker that dies (a
-    segfault in a native library, the OOM killer) breaks the pool: the jobs it was running
-    are retried one at a time in a fresh pool, and one that kills its worker alone is failed
-    with the error; the others go on."""
-    if workers <= 1:
-        yield from (work(job) for job in jobs)
-        return
-    queue, suspects = list(jobs), list[Job]()
-    context = multiprocessing.get_context("spawn")
-    while queue or suspects:
-        alone = bool(suspects)
-        batch, limit = (suspects, 1) if alone else (queue, workers)
-        pool = ProcessPoolExecutor(workers if not alone else 1, mp_context=context)
-        running: dict[Future[dict[str, Any]], Job] = {}
-        try:
-            while batch or running:
-                while batch and len(running) < limit:
-                    job = batch.pop(0)
-                    running[pool.submit(work, job)] = job
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
-                for future in done:
-                    job = running.pop(future)
-                    try:
-                        record = future.result()
-                    except BrokenProcessPool:
-                        if alone:
-                            yield _crashed(job, "the worker process died running this job")
-                        else:
-                            suspects.append(job)
-                        suspects.extend(running.values())  # empty when alone
-                        running.clear()
-                        break
-                    except Exception as error:  # raised by the job itself: its failure
-                        record = _crashed(job, f"{type(error).__name__}: {error}")
-                    yield record
-                else:
-                    continue
-                break  # the pool is broken: start a fresh one
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _ray(jobs: list[Job], workers: int, work: Work) -> Iterator[dict[str, Any]]:
-    """The same jobs as Ray tasks: on the cluster at ``RAY_ADDRESS``, else on a local Ray
-    started with ``workers`` CPUs. A task whose worker dies is retried once, then failed."""
-    try:
-        import ray
-    except ImportError:
-        raise ValueError(
-            "backend: 'ray' needs the optional extra: pip install 'clutter-gym[ray]'"
-        ) from None
-    started = False
-    if not ray.is_initialized():
-        options: dict[str, Any] = {"log_to_driver": False}
-        if not os.environ.get("RAY_ADDRESS"):
-            options.update(num_cpus=workers, include_dashboard=False)
-        ray.init(**options)
-        started = True
-    try:
-        remote = ray.remote(num_cpus=1, max_retries=1)(work)
-        pending = {remote.remote(job): job for job in jobs}
-        while pending:
-            (ready,), _ = ray.wait(list(pending), num_returns=1)
-            job = pending.pop(ready)
-            try:
-                yield ray.get(ready)
-            except ray.exceptions.RayError as error:
-                yield _crashed(job, f"{type(error).__name__}: {error}".splitlines()[0])
-    finally:
-        if started:
-            ray.shutdown()
-
-
-def run_jobs(
-    jobs: list[Job], workers: int = 2, backend: str = "local", work: Work = run_job
-) -> Iterator[dict[str, Any]]:
-    """Records of ``jobs`` as they finish, on the named backend."""
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
-    if workers < 1:
-        raise ValueError(f"workers: {workers}; must be >= 1")
-    runner = _ray if backend == "ray" else _local
-    return runner(jobs, workers, work)
-
-
-# --------------------------------------------------------------------------------------------
 # The run: resumable log, report, table
 # --------------------------------------------------------------------------------------------
-def _config_digest(trials: int, time_budget: float) -> str:
-    return hashlib.sha256(json.dumps([trials, time_budget]).encode()).hexdigest()[:8]
-
-
-def _load_log(log: Path, config: str) -> dict[str, dict[str, Any]]:
-    done: dict[str, dict[str, Any]] = {}
-    if log.exists():
-        for line in log.read_text().splitlines():
-            try:
-                record = json.loads(line)
-            except ValueError:
-                continue  # a line cut short by an interruption
-            if isinstance(record, dict) and record.get("config") == config and "key" in record:
-                done[record["key"]] = record
-    return done
+def _job_key(job: Job) -> str:
+    return job.key
 
 
 def run_benchmark(
     suite_name: str,
-    planners: str | None = None,
+    planners: Sequence[str] | None = None,
     out: Path = Path("out/benchmark.json"),
     markdown: Path | None = None,
     trials: int = 10,
@@ -344,11 +230,11 @@ def run_benchmark(
     scenes_per_group: int | None = None,
     noises: tuple[str, ...] | None = None,
     plots: Path | None = None,
-    work: Work = run_job,
+    work: Callable[[Job], dict[str, Any]] = run_job,
 ) -> dict[str, Any]:
     """Run (or resume) a suite; write the JSON report, the Markdown table and the plots."""
     suite = get_suite(suite_name)
-    names = parse_planners(planners, suite)
+    names = check_planners(planners, suite)
     if trials < 0:
         raise ValueError(f"trials: {trials}; must be >= 0")
     if not (np.isfinite(time_budget) and time_budget > 0):
@@ -361,23 +247,17 @@ def run_benchmark(
             raise ValueError(f"noises: {list(noises)!r}; the suite has {', '.join(known)}")
         cases = [c for c in cases if c.noise in noises]
     jobs = [Job(c, p, seed, trials, time_budget) for c in cases for p in names]
-    config = _config_digest(trials, time_budget)
-    log = out.with_name(f"{out.name}.jobs.jsonl")
-    done = _load_log(log, config)
-    todo = [j for j in jobs if j.key not in done]
-    finished = run_jobs(todo, workers, backend, work)  # checks backend and workers first
-    log.parent.mkdir(parents=True, exist_ok=True)
-    with (
-        log.open("a") as handle,
-        tqdm(total=len(jobs), initial=len(jobs) - len(todo), desc=suite.name, unit="job") as bar,
-    ):
-        for record in finished:
-            handle.write(json.dumps({"config": config, **record}) + "\n")
-            handle.flush()
-            done[record["key"]] = record
-            bar.update()
-            bar.set_postfix_str(f"{record['key']}: {'plan' if record['success'] else 'no plan'}")
-    records = [done[j.key] for j in jobs]
+    run = run_jobs(
+        jobs,
+        JobSpec(work=work, key=_job_key, crashed=_crashed),
+        out.with_name(f"{out.name}.jobs.jsonl"),
+        config_digest({"trials": trials, "time_budget": time_budget}),
+        workers=workers,
+        backend=backend,
+        desc=suite.name,
+        describe=lambda r: "plan" if r["success"] else "no plan",
+    )
+    records = run.records
     report = {
         "suite": suite.name,
         "description": suite.description,
@@ -388,6 +268,7 @@ def run_benchmark(
         "workers": workers,
         "backend": backend,
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count()},
+        "resumed_jobs": run.resumed,
         "summary": summarize(records, suite.name),
         "records": records,
     }

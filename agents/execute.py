@@ -8,26 +8,24 @@ the surface), resets the env to it and replays the plan's env actions unchanged.
 succeeds when the env reports success (goal held by the fingers and lifted, or in the shelf's
 goal strip), with nothing toppled or pushed off the surface.
 
-Trial outcomes stream to ``<json>.<digest>.trials.jsonl``, the digest covering the plan and the
-worlds, so an interrupted run resumes where it stopped.
+Trial outcomes stream to ``<json>.trials.jsonl`` (`agents.jobs`), keyed by the plan, the worlds
+and the code, so an interrupted run resumes where it stopped and says so.
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
-import multiprocessing
-from collections.abc import Iterator
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from agents.jobs import JobSpec, config_digest, run_jobs
 from agents.plan_figure import write_timeline
 from clutter_gym.env import ClutterRetrieveEnv
-from clutter_gym.media import write_gif, write_json
+from clutter_gym.media import gif_writer, write_json
 from clutter_gym.objects import get_object
 from clutter_gym.perception import detect
 from clutter_gym.robot import herb_model as hm
@@ -120,25 +118,28 @@ def plan_actions(plan: Plan) -> list[np.ndarray]:
 
 
 def execute(
-    world: Scene, actions: list[np.ndarray], seed: int, record: bool = False
-) -> tuple[dict[str, Any], list[np.ndarray]]:
-    """Replay env actions on one true world; the outcome and (if recording) the frames."""
+    world: Scene,
+    actions: list[np.ndarray],
+    seed: int,
+    on_frame: Callable[[np.ndarray], object] | None = None,
+) -> dict[str, Any]:
+    """Replay env actions on one true world; the outcome. With ``on_frame``, every rendered
+    frame is handed to it as it comes (a `clutter_gym.media.GifStream`)."""
     env = ClutterRetrieveEnv(
-        render_mode="rgb_array" if record else None,
+        render_mode="rgb_array" if on_frame else None,
         waypoints=WAYPOINTS,
         step_limit=len(actions) + 1,
     )
     try:
         env.reset(seed=seed, options={"scene": world})
-        if record:
-            env.start_recording(FRAME_EVERY)
+        if on_frame is not None:
+            env.start_recording(on_frame, FRAME_EVERY)
         info: dict[str, Any] = {}
         for action in actions:
             _, _, terminated, truncated, info = env.step(action)
             if terminated or truncated:
                 break
-        frames = env.stop_recording() if record else []
-        outcome = {
+        return {
             "success": bool(info["is_success"]),
             "failure": info["failure"],
             "goal_lift_m": round(float(info["goal_lift"]), 4),
@@ -146,13 +147,12 @@ def execute(
         }
     finally:
         env.close()
-    return outcome, frames
 
 
 def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> dict[str, Any]:
     """One trial's outcome; a trial that crashes is a failed trial, with the error."""
     try:
-        outcome, _ = execute(world, actions, seed=seed)
+        outcome = execute(world, actions, seed=seed)
     except Exception as error:
         outcome = {"success": False, "failure": f"crashed: {error!r}"}
     return outcome
@@ -176,29 +176,24 @@ def outcome_summary(outcomes: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _work(job: tuple[int, Scene, list[np.ndarray]]) -> tuple[int, dict[str, Any]]:
+TrialJob = tuple[int, Scene, list[np.ndarray]]
+"""One execution: its index (also the env seed), the true world and the plan's env actions."""
+
+
+def _run_trial(job: TrialJob) -> dict[str, Any]:
     index, world, actions = job
-    return index, execute_trial(world, actions, seed=index)
+    return execute_trial(world, actions, seed=index)
 
 
-def _outcomes(jobs: list[Any], workers: int) -> Iterator[tuple[int, dict[str, Any]]]:
-    if workers <= 1:
-        yield from (_work(job) for job in jobs)
-        return
-    with multiprocessing.get_context("spawn").Pool(workers) as pool:
-        yield from pool.imap_unordered(_work, jobs)
+def _trial_key(job: TrialJob) -> str:
+    return str(job[0])
 
 
-def _done(log: Path) -> dict[int, dict[str, Any]]:
-    done: dict[int, dict[str, Any]] = {}
-    if log.exists():
-        for line in log.read_text().splitlines():
-            try:
-                record = json.loads(line)
-                done[int(record["index"])] = record["outcome"]
-            except (ValueError, KeyError):
-                continue  # a line cut short by an interruption
-    return done
+def _trial_crashed(job: TrialJob, error: str) -> dict[str, Any]:
+    return {"success": False, "failure": f"crashed: {error}"}
+
+
+TRIALS = JobSpec(work=_run_trial, key=_trial_key, crashed=_trial_crashed)
 
 
 def run_plan(
@@ -243,8 +238,8 @@ def run_plan(
         actions = plan_actions(plan)
         worlds = true_worlds(scene, detection, max(trials, 1), rng)
         if gif is not None:
-            outcome, frames = execute(worlds[0], actions, seed=0, record=True)
-            write_gif(gif, frames, fps=10)
+            with gif_writer(gif, fps=10) as frames:
+                outcome = execute(worlds[0], actions, seed=0, on_frame=frames.add)
             report["gif"] = str(gif)
             report["gif_trial"] = outcome
         if trials:
@@ -257,24 +252,18 @@ def run_plan(
 def _trials(
     worlds: list[Scene], actions: list[np.ndarray], out: Path | None, workers: int
 ) -> dict[str, Any]:
-    digest = hashlib.sha256(
+    """Execute on every world through the job runner: the log beside ``out`` (or
+    out/plan.json) is keyed by the worlds, the actions and the code, so a rerun of the same
+    plan resumes and any other plan or code starts afresh."""
+    plan = hashlib.sha256(
         repr(([scene_to_dict(w) for w in worlds], [a.tobytes() for a in actions])).encode()
-    ).hexdigest()[:12]
+    ).hexdigest()
     base = out or Path("out/plan.json")
-    log = base.with_name(f"{base.name}.{digest}.trials.jsonl")
-    done = _done(log)
-    jobs = [(i, w, actions) for i, w in enumerate(worlds) if i not in done]
-    log.parent.mkdir(parents=True, exist_ok=True)
-    with (
-        log.open("a") as handle,
-        tqdm(
-            total=len(worlds), initial=len(worlds) - len(jobs), desc="execute", unit="trial"
-        ) as bar,
-    ):
-        for index, outcome in _outcomes(jobs, workers):
-            handle.write(json.dumps({"index": index, "outcome": outcome}) + "\n")
-            handle.flush()
-            done[index] = outcome
-            bar.update()
-    outcomes = [done[i] for i in range(len(worlds))]
-    return {**outcome_summary(outcomes), "trial_outcomes": outcomes}
+    log = base.with_name(f"{base.name}.trials.jsonl")
+    jobs = [(i, w, actions) for i, w in enumerate(worlds)]
+    run = run_jobs(jobs, TRIALS, log, config_digest(plan), workers=workers, desc="execute")
+    return {
+        **outcome_summary(run.records),
+        "resumed_trials": run.resumed,
+        "trial_outcomes": run.records,
+    }

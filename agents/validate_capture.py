@@ -12,25 +12,24 @@ The same grid runs with the whole scene turned by `rotations` degrees about the 
 pybullet's friction is anisotropic (two decoupled friction directions along its axes), which a
 push at 45 degrees exposes.
 
-Results stream to `<json>.<digest>.trials.jsonl` as they finish, the digest covering everything
-that decides a trial's physics (object, aperture, push, grid, start configurations); a rerun with
-the same set-up skips the trials already there (nothing is lost when interrupted).
+Results stream to `<json>.trials.jsonl` as they finish (`agents.jobs`), keyed by everything that
+decides a trial's physics (object, aperture, push, grid, start configurations) and the code; a
+rerun with the same set-up skips the trials already there (nothing is lost when interrupted).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
-import json
 import math
-import multiprocessing
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from agents.jobs import JobSpec, config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
 from clutter_gym.objects import OBJECTS, ObjectSpec, get_object
@@ -181,40 +180,43 @@ def run_trial(env: ClutterRetrieveEnv, kind: str, setup: PushSetup, pose: Sequen
     return "success" if info["is_success"] else f"failure: {info['failure'] or 'not held'}"
 
 
-_WORKER: dict[str, Any] = {}
+ValidationJob = tuple[int, str, PushSetup, tuple[float, float, float]]
+"""One trial: its index, the object kind, the push set-up of its rotation and the pose."""
 
 
-def _init_worker(kind: str, setups: dict[float, PushSetup]) -> None:
-    _WORKER.update(env=ClutterRetrieveEnv(), kind=kind, setups=setups)
+@functools.cache
+def _process_env() -> ClutterRetrieveEnv:
+    """One env per process, reset for every trial: a worker pays for its pybullet world once."""
+    return ClutterRetrieveEnv()
 
 
-def _work(job: tuple[int, float, tuple[float, float, float]]) -> tuple[int, str]:
-    index, rotation, pose = job
-    return index, run_trial(_WORKER["env"], _WORKER["kind"], _WORKER["setups"][rotation], pose)
+def _run_validation(job: ValidationJob) -> dict[str, Any]:
+    _, kind, setup, pose = job
+    return {"outcome": run_trial(_process_env(), kind, setup, pose)}
 
 
-def _done_trials(path: Path) -> dict[int, dict[str, Any]]:
-    if not path.exists():
-        return {}
-    done = {}
-    for line in path.read_text().splitlines():
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError:  # a line cut by an interruption: rerun that trial
-            continue
-        done[record["index"]] = record
-    return done
+def _validation_key(job: ValidationJob) -> str:
+    return str(job[0])
+
+
+def _validation_crashed(job: ValidationJob, error: str) -> dict[str, Any]:
+    return {"outcome": f"crashed: {error}"}
+
+
+VALIDATION = JobSpec(work=_run_validation, key=_validation_key, crashed=_validation_crashed)
 
 
 def summarize(trials: Sequence[Trial]) -> dict[str, Any]:
-    ran = [t for t in trials if not t.outcome.startswith("skipped")]
+    crashed = [t for t in trials if t.outcome.startswith("crashed")]
+    ran = [t for t in trials if not t.outcome.startswith(("skipped", "crashed"))]
     successes = [t for t in ran if t.success]
     predicted = [t for t in ran if t.predicted]
     failed_inside = [t for t in predicted if not t.success]
     predicted_successes = [t for t in successes if t.predicted]
     return {
         "trials": len(ran),
-        "skipped": len(trials) - len(ran),
+        "skipped": len(trials) - len(ran) - len(crashed),
+        "crashed": len(crashed),
         "physical_successes": len(successes),
         "predicted_inside": len(predicted),
         "failures_inside": len(failed_inside),
@@ -238,39 +240,28 @@ def validate(
     predicted = region.contains(poses, PUSH_DISTANCE)
     setups = {r: plan_push(spec, aperture, r) for r in rotations}
     jobs = [
-        (i * len(poses) + j, r, (float(poses[j, 0]), float(poses[j, 1]), float(poses[j, 2])))
+        (i * len(poses) + j, kind, setups[r], (float(p[0]), float(p[1]), float(p[2])))
         for i, r in enumerate(rotations)
-        for j in range(len(poses))
+        for j, p in enumerate(poses)
     ]
-    digest = hashlib.sha256(
-        repr(
-            (
-                kind,
-                aperture,
-                PUSH_DISTANCE,
-                poses.tobytes(),
-                [(s.hand_base, s.start_arm, s.action.tobytes()) for s in setups.values()],
-            )
-        ).encode()
-    ).hexdigest()[:12]
-    log = out.with_name(f"{out.name}.{digest}.trials.jsonl")
-    done = _done_trials(log)
-    todo = [job for job in jobs if job[0] not in done]
-    log.parent.mkdir(parents=True, exist_ok=True)
-    with (
-        log.open("a") as handle,
-        tqdm(
-            total=len(jobs), initial=len(jobs) - len(todo), desc=f"validate {kind}", unit="trial"
-        ) as bar,
-    ):
-        for index, outcome in _results(kind, setups, todo, workers):
-            handle.write(json.dumps({"index": index, "outcome": outcome}) + "\n")
-            handle.flush()
-            done[index] = {"index": index, "outcome": outcome}
-            bar.update()
+    config = config_digest(
+        hashlib.sha256(
+            repr(
+                (
+                    kind,
+                    aperture,
+                    PUSH_DISTANCE,
+                    poses.tobytes(),
+                    [(s.hand_base, s.start_arm, s.action.tobytes()) for s in setups.values()],
+                )
+            ).encode()
+        ).hexdigest()
+    )
+    log = out.with_name(f"{out.name}.trials.jsonl")
+    run = run_jobs(jobs, VALIDATION, log, config, workers=workers, desc=f"validate {kind}")
     results = [
-        Trial(index, rotation, pose, bool(predicted[index % len(poses)]), done[index]["outcome"])
-        for index, rotation, pose in jobs
+        Trial(index, setup.rotation_deg, pose, bool(predicted[index % len(poses)]), r["outcome"])
+        for (index, _, setup, pose), r in zip(jobs, run.records, strict=True)
     ]
     report: dict[str, Any] = {
         "object": kind,
@@ -285,15 +276,3 @@ def validate(
     report["trials"] = [asdict(t) for t in results]
     write_json(out, report)
     return report
-
-
-def _results(
-    kind: str, setups: dict[float, PushSetup], jobs: list[Any], workers: int
-) -> Iterator[tuple[int, str]]:
-    if workers <= 1:
-        _init_worker(kind, setups)
-        yield from (_work(job) for job in jobs)
-        return
-    context = multiprocessing.get_context("spawn")
-    with context.Pool(workers, initializer=_init_worker, initargs=(kind, setups)) as pool:
-        yield from pool.imap_unordered(_work, jobs, chunksize=4)

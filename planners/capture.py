@@ -27,6 +27,7 @@ import io
 import itertools
 import json
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -481,6 +482,10 @@ def cache_name(kind: str, footprint: Footprint, aperture: float, settings: Captu
     return f"{kind}_{footprint.shape}_{digest[:16]}.npz"
 
 
+_FINITE = ("ys", "thetas", "x_start")
+"""Arrays of a region that must be finite; the push distances may be inf (never NaN)."""
+
+
 def _cached(
     kind: str,
     footprint: Footprint,
@@ -489,35 +494,65 @@ def _cached(
     cache_dir: Path | None,
     build: Callable[[], dict[str, np.ndarray]],
 ) -> dict[str, np.ndarray]:
-    """Load the arrays for this exact key, or build them and write them atomically.
+    """The arrays for this exact key: the shipped copy, else the cache's, else built and cached.
 
-    The hash of every parameter is in the file name and the full key inside it; a file that
-    cannot be read or whose key differs is rebuilt and replaced.
+    The hash of every parameter is in the file name and the full key inside it. A copy that
+    cannot be read, holds another key or bad values is passed over with a warning, never
+    trusted and never fatal; a cache that cannot be written only costs a rebuild next time.
     """
     key = _cache_key(kind, footprint, aperture, settings)
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     name = cache_name(kind, footprint, aperture, settings)
-    places = [directory / name] + ([SHIPPED_DIR / name] if cache_dir is None else [])
+    places = ([SHIPPED_DIR / name] if cache_dir is None else []) + [directory / name]
     for place in places:
         arrays = _load(place, key)
         if arrays is not None:
             return arrays
-    path = directory / name
     arrays = build()
     buffer = io.BytesIO()
     np.savez(buffer, key=np.array(key), **arrays)  # type: ignore[arg-type]  # numpy's hints reject **arrays
-    atomic_write_bytes(path, buffer.getvalue())
+    try:
+        atomic_write_bytes(directory / name, buffer.getvalue())
+    except OSError as error:
+        warnings.warn(
+            f"capture region cache {directory / name} could not be written ({error}); the "
+            "region was built and is used, but will be built again next time",
+            stacklevel=3,
+        )
     return arrays
 
 
 def _load(path: Path, key: str) -> dict[str, np.ndarray] | None:
+    """The arrays of a cache file with this key, or None (missing, unreadable or bad)."""
+    if not path.exists():
+        return None
     try:
         with np.load(path, allow_pickle=False) as data:
-            if str(data["key"]) == key:
-                return {k: data[k] for k in data.files if k != "key"}
-    except (OSError, ValueError, KeyError, EOFError):
-        pass
+            if str(data["key"]) != key:
+                return None
+            arrays = {k: data[k] for k in data.files if k != "key"}
+        problem = _bad_arrays(arrays)
+    except Exception as error:  # any broken copy: truncated, a flipped byte, a directory
+        problem = f"{type(error).__name__}: {error}"
+    if not problem:
+        return arrays
+    warnings.warn(
+        f"capture region cache {path} is unusable ({problem}); not using it",
+        stacklevel=4,
+    )
     return None
+
+
+def _bad_arrays(arrays: dict[str, np.ndarray]) -> str:
+    """Why a loaded region is not one `_build_*` could have written, or ""."""
+    for name, values in arrays.items():
+        if not np.issubdtype(values.dtype, np.floating):
+            return f"{name} is not a float array"
+        if np.isnan(values).any() or (name in _FINITE and not np.isfinite(values).all()):
+            return f"{name} holds NaN or inf"
+    if "ys" not in arrays or arrays["ys"].ndim != 1 or len(arrays["ys"]) < 2:
+        return "the lateral grid is missing"
+    return ""
 
 
 def push_grasp_region(

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -172,3 +175,69 @@ def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path
     fresh = push_grasp_region(can, default_aperture(can), cache_dir=tmp_path)
     assert np.array_equal(shipped.s_req, fresh.s_req)
     assert np.array_equal(shipped.s_contact, fresh.s_contact)
+
+
+def _truncate(path: Path) -> None:
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+
+
+def _flip_byte(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+def _directory(path: Path) -> None:
+    path.unlink()
+    path.mkdir()
+
+
+def _nan_arrays(path: Path) -> None:
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["s_req"] = np.full_like(arrays["s_req"], np.nan)
+    np.savez(path, **arrays)
+
+
+CORRUPTIONS = {"truncated": _truncate, "flipped byte": _flip_byte, "a directory": _directory,
+               "NaN arrays": _nan_arrays}  # fmt: skip
+
+
+@pytest.mark.parametrize("corrupt", CORRUPTIONS.values(), ids=CORRUPTIONS.keys())
+def test_a_corrupt_cache_file_is_rebuilt_with_a_warning(
+    tmp_path: Path, corrupt: Callable[[Path], None]
+) -> None:
+    coarse = CaptureSettings(y_resolution=0.01)
+    first = push_grasp_region(CAN, 0.12, coarse, cache_dir=tmp_path)
+    (path,) = tmp_path.glob("push_grasp_circle_*.npz")
+    corrupt(path)
+    with pytest.warns(UserWarning, match="capture region cache .* unusable"):
+        rebuilt = push_grasp_region(CAN, 0.12, coarse, cache_dir=tmp_path)
+    np.testing.assert_array_equal(first.s_req, rebuilt.s_req)
+
+
+@pytest.mark.parametrize("corrupt", CORRUPTIONS.values(), ids=CORRUPTIONS.keys())
+def test_a_corrupt_user_copy_never_hides_the_shipped_region(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, corrupt: Callable[[Path], None]
+) -> None:
+    can = OBJECTS["soda_can"].footprint
+    name = cache_name("push_grasp", can, default_aperture(can), CaptureSettings())
+    user = tmp_path / "clutter_gym" / "capture"
+    user.mkdir(parents=True)
+    shutil.copy(SHIPPED_DIR / name, user / name)
+    corrupt(user / name)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the shipped copy is used: nothing to warn about
+        region = push_grasp_region(can, default_aperture(can))
+    with np.load(SHIPPED_DIR / name) as shipped:
+        np.testing.assert_array_equal(region.s_req, shipped["s_req"])
+
+
+def test_an_unwritable_cache_still_gives_the_region(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("a regular file where the cache directory should be")
+    coarse = CaptureSettings(y_resolution=0.01)
+    with pytest.warns(UserWarning, match="could not be written"):
+        region = push_grasp_region(CAN, 0.12, coarse, cache_dir=blocker / "capture")
+    assert np.isfinite(region.s_req).any()

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,9 +62,3 @@ def test_summary_counts_failures_inside_and_tightness() -> None:
     summary = vc.summarize(trials)
     assert summary["trials"] == 3 and summary["skipped"] == 1
     assert summary["failures_inside"] == 0 and summary["tightness"] == pytest.approx(0.5)
-
-
-def test_interrupted_log_lines_are_rerun(tmp_path: Path) -> None:
-    log = tmp_path / "x.trials.jsonl"
-    log.write_text(json.dumps({"index": 3, "outcome": "success"}) + "\n" + '{"index": 4, "out')
-    assert set(vc._done_trials(log)) == {3}

@@ -1,0 +1,301 @@
+"""One job runner for every long command (`benchmark`, `plan --execute`, `validate-capture`).
+
+A run is a list of independent jobs and one function that turns a job into a JSON record. The
+runner owns what makes a long run trustworthy, so no command writes it again:
+
+* **Nothing lost.** Every finished record is appended to a JSONL log at once; a rerun with the
+  same jobs skips what the log holds. A line cut by a crash mid-write is cut off the log before
+  anything is appended, so the next record never lands on a broken line.
+* **Nothing stale.** Each log line carries a `config` digest: the caller's settings, the package
+  version and a digest of the project's own files (code, shipped data, scenes). Records made by
+  other code or settings are never resumed.
+* **Nothing left behind.** Workers are spawned processes that exit on their own within a second
+  of losing their parent (a ``kill -9`` of the command), and ignore SIGINT: a Ctrl-C (SIGINT to
+  the whole process group, or to the parent alone) lets running jobs finish and keeps their
+  records; a second Ctrl-C stops them at once.
+* **Crashes are records.** A worker that dies (a native crash, the OOM killer) breaks the pool;
+  the jobs it was running are retried alone in a fresh pool, and one that kills its worker alone
+  becomes the caller's crash record. A job that raises becomes one too; the run goes on.
+
+`backend="ray"` runs the same jobs as Ray tasks (the `ray` extra): on the cluster at
+``RAY_ADDRESS``, else on a local Ray with ``workers`` CPUs.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Generic, TypeVar
+
+from tqdm import tqdm
+
+import clutter_gym
+
+Record = dict[str, Any]
+J = TypeVar("J")
+BACKENDS = ("local", "ray")
+PARENT_POLL_S = 0.5
+"""How often a worker checks that the process that started it is still alive."""
+_PACKAGES = ("clutter_gym", "planners", "agents")
+
+
+@functools.cache
+def code_digest() -> str:
+    """Digest of the package version and every file of the project's packages (code, shipped
+    capture regions, scenes): a record made by other code is never resumed as if it were new."""
+    digest = hashlib.sha256(clutter_gym.__version__.encode())
+    root = Path(__file__).resolve().parents[1]
+    for package in _PACKAGES:
+        for path in sorted((root / package).rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def config_digest(settings: object) -> str:
+    """The `config` of a run: its settings (anything JSON can show) and `code_digest`."""
+    text = json.dumps([settings, code_digest()], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class JobRun:
+    """Records in the order of the jobs; how many came from the log and how many ran now."""
+
+    records: list[Record]
+    resumed: int
+    ran: int
+
+
+@dataclass(frozen=True)
+class JobSpec(Generic[J]):
+    """What the runner needs to know about one kind of job (all module-level, picklable)."""
+
+    work: Callable[[J], Record]
+    key: Callable[[J], str]
+    crashed: Callable[[J, str], Record]
+    """The record of a job that raised or killed its worker, from the error text."""
+
+
+# --------------------------------------------------------------------------------------------
+# The log
+# --------------------------------------------------------------------------------------------
+def read_log(log: Path, config: str) -> dict[str, Record]:
+    """Records of this config by key; a line cut short (a crash mid-write) is skipped."""
+    done: dict[str, Record] = {}
+    if not log.exists():
+        return done
+    for line in log.read_text(errors="replace").splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(entry, dict) and entry.get("config") == config and "key" in entry:
+            done[str(entry["key"])] = entry["record"]
+    return done
+
+
+def repair_log(log: Path) -> None:
+    """Cut a last line that was not finished (no newline), so appends start on a new line."""
+    if not log.exists():
+        return
+    with log.open("rb+") as handle:
+        data = handle.read()
+        if data and not data.endswith(b"\n"):
+            handle.truncate(data.rfind(b"\n") + 1)
+
+
+# --------------------------------------------------------------------------------------------
+# Running
+# --------------------------------------------------------------------------------------------
+def run_jobs(
+    jobs: Sequence[J],
+    spec: JobSpec[J],
+    log: Path,
+    config: str,
+    *,
+    workers: int = 2,
+    backend: str = "local",
+    desc: str = "jobs",
+    describe: Callable[[Record], str] | None = None,
+) -> JobRun:
+    """Run (or resume) ``jobs``; every record is in ``log`` before this returns or raises."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
+    if workers < 1:
+        raise ValueError(f"workers: {workers}; must be >= 1")
+    keys = [spec.key(job) for job in jobs]
+    if len(set(keys)) != len(keys):
+        raise ValueError("jobs: two jobs share a key; every job needs its own")
+    log.parent.mkdir(parents=True, exist_ok=True)
+    repair_log(log)
+    done = read_log(log, config)
+    todo = [job for job, k in zip(jobs, keys, strict=True) if k not in done]
+    resumed = len(jobs) - len(todo)
+    if resumed:
+        print(
+            f"resumed {resumed} of {len(jobs)} {desc} records from {log} (delete it to redo them)",
+            file=sys.stderr,
+        )
+    runner = _ray if backend == "ray" else _local
+    with (
+        log.open("a") as handle,
+        tqdm(total=len(jobs), initial=resumed, desc=desc, unit="job") as bar,
+    ):
+        for job, record in runner(todo, spec, workers):
+            key = spec.key(job)
+            handle.write(json.dumps({"config": config, "key": key, "record": record}) + "\n")
+            handle.flush()
+            done[key] = record
+            bar.update()
+            if describe is not None:
+                bar.set_postfix_str(f"{key}: {describe(record)}")
+    return JobRun([done[k] for k in keys], resumed, len(todo))
+
+
+def _guarded(spec: JobSpec[J], job: J) -> Record:
+    """The job's record; an exception it raises becomes its crash record."""
+    try:
+        return spec.work(job)
+    except Exception as error:
+        return spec.crashed(job, f"{type(error).__name__}: {error}")
+
+
+Finished = Iterator[tuple[Any, Record]]
+
+
+def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
+    """In this process for one worker; else a spawn pool with at most ``workers`` jobs in
+    flight, fresh pools after a worker died (its jobs retried one at a time)."""
+    if workers <= 1:
+        for job in jobs:
+            yield job, _guarded(spec, job)
+        return
+    queue, suspects = list(jobs), list[J]()
+    context = multiprocessing.get_context("spawn")
+    with _FirstInterrupt() as interrupt:
+        while (queue and not interrupt.seen) or suspects:
+            alone = bool(suspects)
+            batch, limit = (suspects, 1) if alone else (queue, workers)
+            pool = ProcessPoolExecutor(
+                limit, mp_context=context, initializer=_worker_init, initargs=(os.getpid(),)
+            )
+            running: dict[Future[Record], J] = {}
+            try:
+                while (batch and not interrupt.seen) or running:
+                    while batch and not interrupt.seen and len(running) < limit:
+                        job = batch.pop(0)
+                        running[pool.submit(_guarded, spec, job)] = job
+                    finished, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+                    for future in finished:
+                        job = running.pop(future)
+                        try:
+                            record = future.result()
+                        except BrokenProcessPool:
+                            if alone:
+                                yield job, spec.crashed(job, "the worker process died running it")
+                            else:
+                                suspects.append(job)
+                            suspects.extend(running.values())  # empty when alone
+                            running.clear()
+                            break
+                        yield job, record
+                    else:
+                        continue
+                    break  # the pool is broken: a fresh one for what is left
+            except BaseException:  # a second Ctrl-C, or the consumer gave up: stop them now
+                _terminate(pool)
+                raise
+            pool.shutdown(wait=True)
+            if interrupt.seen:
+                suspects.clear()
+    if interrupt.seen:
+        raise KeyboardInterrupt
+
+
+class _FirstInterrupt:
+    """While active, the first SIGINT only sets `seen` (running jobs finish and are kept); the
+    second raises KeyboardInterrupt as usual. A no-op outside the main thread."""
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._previous: Any = None
+
+    def __enter__(self) -> _FirstInterrupt:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def _handle(self, *_: object) -> None:
+        self.seen = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        print(
+            "\ninterrupted: finishing the running jobs and keeping their results "
+            "(Ctrl-C again to stop them now)",
+            file=sys.stderr,
+        )
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Kill a pool's workers now (Python 3.11 has no public call for it)."""
+    for process in list(getattr(pool, "_processes", {}).values()):
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _worker_init(parent: int) -> None:
+    """Workers leave SIGINT to the parent (which lets them finish their job) and exit by
+    themselves when the parent is gone, whatever killed it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_exit_with_parent, args=(parent,), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def _ray(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
+    """The same jobs as Ray tasks; a task whose worker dies is retried once, then crashed."""
+    try:
+        import ray
+    except ImportError:
+        raise ValueError("backend: 'ray' needs the ray extra: pip install -e '.[ray]'") from None
+    started = False
+    if not ray.is_initialized():
+        options: dict[str, Any] = {"log_to_driver": False}
+        if not os.environ.get("RAY_ADDRESS"):
+            options.update(num_cpus=workers, include_dashboard=False)
+        ray.init(**options)
+        started = True
+    try:
+        remote: Any = ray.remote(num_cpus=1, max_retries=1)(_guarded)
+        pending = {remote.remote(spec, job): job for job in jobs}
+        while pending:
+            (ready,), _ = ray.wait(list(pending), num_returns=1)
+            job = pending.pop(ready)
+            try:
+                yield job, ray.get(ready)
+            except ray.exceptions.RayError as error:
+                yield job, spec.crashed(job, f"{type(error).__name__}: {error}".splitlines()[0])
+    finally:
+        if started:
+            ray.shutdown()
