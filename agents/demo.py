@@ -3,8 +3,6 @@ recorded as a GIF with a JSON summary (plan, planning time, objects moved, outco
 
 from __future__ import annotations
 
-import json
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -15,18 +13,17 @@ from tqdm import tqdm
 import clutter_gym  # noqa: F401  (registers the env)
 from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.env import ClutterRetrieveEnv
-from clutter_gym.media import write_gif, write_json
-from clutter_gym.scene import Scene, load_scene, scene_to_dict
+from clutter_gym.media import gif_writer, write_json
+from clutter_gym.scene import Scene, load_scene, scene_to_dict, shipped_scene
 
 FRAME_EVERY = 24  # physics steps between GIF frames: 10 frames per simulated second
-DEFAULT_SCENE = "scenes/figures/fig3_can_box_dumbbell.json"
+DEFAULT_SCENE = "figures/fig3_can_box_dumbbell"
 STEP_LIMIT = 40  # env steps of 16 waypoints: room for a plan that moves a few objects
 
 
 def default_scene() -> Scene:
     """The paper's Figs. 3-5: a red can behind a large ungraspable box, a dumbbell beside it."""
-    text = resources.files("clutter_gym").joinpath(DEFAULT_SCENE).read_text()
-    return load_scene(json.loads(text))
+    return load_scene(shipped_scene(DEFAULT_SCENE))
 
 
 def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str, Any]:
@@ -35,26 +32,31 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     chosen = default_scene() if scene is None else load_scene(scene)
     env = gym.make("ClutterRetrieve-v0", render_mode="rgb_array", step_limit=STEP_LIMIT)
     base: ClutterRetrieveEnv = env.unwrapped  # type: ignore[assignment]
+    gif = out_dir / "demo.gif"
     try:
         obs, info = env.reset(seed=seed, options={"scene": chosen})
         policy = RearrangePolicy(base.waypoints, names=info["object_names"], seed=seed)
         steps, reward_sum, terminated, truncated = 0, 0.0, False, False
-        with tqdm(desc="demo (simulated s)", bar_format="{desc}: {n:.1f} [{elapsed}]") as bar:
-            base.start_recording(
-                FRAME_EVERY, on_frame=lambda n: bar.update(n * base.sim.timestep - bar.n)
-            )
+        with (
+            gif_writer(gif, fps=10) as frames,
+            tqdm(desc="demo (simulated s)", bar_format="{desc}: {n:.1f} [{elapsed}]") as bar,
+        ):
+
+            def record(frame: np.ndarray) -> None:
+                frames.add(frame)
+                bar.update(frames.frames * FRAME_EVERY * base.sim.timestep - bar.n)
+
+            base.start_recording(record, FRAME_EVERY)
             while not (terminated or truncated):
                 obs, reward, terminated, truncated, info = env.step(policy(obs))
                 steps += 1
                 reward_sum += float(reward)
                 if policy.failure:
                     break
-        frames = base.stop_recording()
+            base.stop_recording()
         timestep = base.sim.timestep
     finally:
         env.close()
-    gif = out_dir / "demo.gif"
-    write_gif(gif, frames, fps=10)
     goal_index = list(info["object_names"]).index(chosen.goal.object)
     summary: dict[str, Any] = {
         "scene": scene_to_dict(chosen),
@@ -70,7 +72,7 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
         "simulated_seconds": round(info["sim_steps"] * timestep, 3),
         "goal_true_pose_end": np.round(info["true_object_poses"][goal_index], 4).tolist(),
         "gif": str(gif),
-        "frames": len(frames),
+        "frames": frames.frames,
     }
     write_json(out_dir / "demo.json", summary)
     return summary

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import platform
 import statistics
-from importlib import resources
 from typing import Any
 
 from tqdm import tqdm
 
 from agents.execute import run_plan
+from clutter_gym.scene import shipped_scene
 
 SCENES = (
     "figures/fig3_can_box_dumbbell",
@@ -33,8 +33,7 @@ def bench_plan(seeds: int = 3, noises: tuple[str, ...] = NOISES) -> dict[str, An
     result: dict[str, Any] = {"benchmark": "plan", "python": platform.python_version()}
     jobs = [(scene, noise) for scene in SCENES for noise in noises]
     for scene, noise in tqdm(jobs, desc="bench plan", unit="scene"):
-        path = resources.files("clutter_gym").joinpath(f"scenes/{scene}.json")
-        runs = [run_plan(str(path), noise=noise, seed=seed) for seed in range(seeds)]
+        runs = [run_plan(shipped_scene(scene), noise=noise, seed=seed) for seed in range(seeds)]
         times = [r["planning_time_s"] for r in runs]
         result[f"{scene.split('/')[-1]}/{noise}"] = {
             "planned": sum(r["success"] for r in runs),

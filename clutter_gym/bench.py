@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import platform
 import resource
+import sys
 import time
 from typing import Any
 
@@ -22,6 +23,7 @@ from tqdm import tqdm
 
 import clutter_gym  # noqa: F401  (registers the env)
 from clutter_gym.robot import herb_model as hm
+from clutter_gym.sim import native_stdout_muted
 
 
 def rss_mb() -> float:
@@ -92,11 +94,14 @@ def bench_resets(resets: int) -> dict[str, float]:
 
 
 def bench_panda(steps: int) -> float | None:
+    """PandaPush-v3 steps/s in this process, or None without panda-gym (the bench extra)."""
     try:
         import panda_gym  # noqa: F401
     except ImportError:
+        print("PandaPush-v3 not measured: pip install -e '.[bench]'", file=sys.stderr)
         return None
-    env = gym.make("PandaPush-v3")
+    with native_stdout_muted():
+        env = gym.make("PandaPush-v3")
     try:
         return _steps_per_second(env, steps, "PandaPush-v3 steps")
     finally:

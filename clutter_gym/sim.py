@@ -42,10 +42,10 @@ class Camera:
 
 
 @contextmanager
-def _native_stdout_muted() -> Iterator[None]:
+def native_stdout_muted() -> Iterator[None]:
     """Send file descriptor 1 to /dev/null: pybullet's C code prints "argv[0]=" on stdout when
-    it connects, which would land in the middle of a CLI's JSON lines (the benchmark's workers
-    each connect)."""
+    a client connects (ours, and panda-gym's in `clutter-gym bench env`), which would land in
+    the middle of a CLI's JSON lines (the benchmark's workers each connect)."""
     sys.stdout.flush()
     saved = os.dup(1)
     try:
@@ -61,7 +61,7 @@ class Simulator:
     """One pybullet world: builds bodies by name, steps, renders, answers contact queries."""
 
     def __init__(self, timestep: float = TIMESTEP, solver_iterations: int = 20) -> None:
-        with _native_stdout_muted():
+        with native_stdout_muted():
             self._client: BulletClient | None = BulletClient(connection_mode=pybullet.DIRECT)
         self.timestep = timestep
         self.solver_iterations = solver_iterations

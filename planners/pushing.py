@@ -1,15 +1,16 @@
-"""Quasi-static planar pushing with an ellipsoidal limit surface (shared/pushing/MECHANICS.md).
+"""Quasi-static planar pushing with an ellipsoidal limit surface (Howe & Cutkosky; Lynch).
 
 Why this module exists: capture regions (`planners.capture`) need thousands of push simulations,
-so every solver here works on batches of samples with numpy. Conventions follow MECHANICS.md:
-the object frame sits at the centre of friction, a twist is ``(vx, vy, omega)`` in that frame,
-contact normals point from the pusher into the object, and ``A = diag(1, 1, 1/c^2)``.
+so every solver here works on batches of samples with numpy. Conventions: the object frame sits at
+the centre of friction, a twist is ``(vx, vy, omega)`` in that frame, contact normals point from
+the pusher into the object, and ``A = diag(1, 1, 1/c^2)``.
 
-Several simultaneous contacts are solved as the LCP of MECHANICS.md by enumerating, for each
-contact, the four complementarity patterns of its ``(f_n, f_t+, f_t-, lambda)`` block (separate,
-stick, slide +t, slide -t): with at most four contacts that is at most 256 linear systems, each
-solved for the whole batch at once, and an exhaustive enumeration never misses a solution the
-way a pivoting method with a degenerate start can. No solution means the contacts jam.
+Several simultaneous contacts are solved as the contact LCP (Stewart & Trinkle) by enumerating,
+for each contact, the four complementarity patterns of its ``(f_n, f_t+, f_t-, lambda)`` block
+(separate, stick, slide +t, slide -t): with at most four contacts that is at most 256 linear
+systems, each solved for the whole batch at once, and an exhaustive enumeration never misses a
+solution the way a pivoting method with a degenerate start can. No solution means the contacts
+jam.
 """
 
 from __future__ import annotations
@@ -137,7 +138,7 @@ def contact_jacobian(r: np.ndarray) -> np.ndarray:
 
 
 def lynch_sticking_twist(r: np.ndarray, vp: np.ndarray, c: np.ndarray | float) -> np.ndarray:
-    """Lynch's closed-form sticking twist (MECHANICS.md), batched over leading axes."""
+    """Lynch's closed-form sticking twist (Lynch, Maekawa & Tanie 1992), batched."""
     r, vp = np.asarray(r, float), np.asarray(vp, float)
     x, y, c2 = r[..., 0], r[..., 1], np.asarray(c, float) ** 2
     d = c2 + x * x + y * y
@@ -158,7 +159,7 @@ def single_contact_twist(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Object twist and contact mode (SEPARATE/STICK/SLIDE) for one point contact, batched.
 
-    Exactly the three cases of MECHANICS.md: the sticking force f* = B^-1 v_p decides between
+    The three cases of a point contact: the sticking force f* = B^-1 v_p decides between
     sticking and sliding on the friction-cone edge that f* lies beyond.
     """
     r, n, vp = np.broadcast_arrays(*(np.asarray(a, float) for a in (r, n, vp)))
@@ -191,7 +192,7 @@ def single_contact_twist(
 def contact_lcp(
     r: np.ndarray, n: np.ndarray, vp: np.ndarray, mu: float, c: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(M, q) of the MECHANICS.md LCP for m contacts (r, n, vp: (m, 2)); z = (f_n, f_t, lambda)."""
+    """(M, q) of the contact LCP for m contacts (r, n, vp: (m, 2)); z = (f_n, f_t, lambda)."""
     r, n, vp = (np.asarray(a, float) for a in (r, n, vp))
     m = len(r)
     a = limit_surface_matrix(c)
@@ -224,7 +225,7 @@ class ContactSolution:
 def _mode_patterns(m: int) -> np.ndarray:
     """All 4^m per-contact modes (0 separate, 1 stick, 2 slide +t, 3 slide -t), fewest active
     contacts first, then fewest sliding: with friction the LCP can also admit a solution in which
-    a receding pusher drags the object, and this order picks separation as MECHANICS.md does."""
+    a receding pusher drags the object, and this order picks separation, the physical answer."""
     combos = np.array(list(itertools.product(range(4), repeat=m)), dtype=int)
     key = (combos != 0).sum(1) * 10 + (combos >= 2).sum(1)
     return combos[np.argsort(key, kind="stable")]

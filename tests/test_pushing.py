@@ -110,7 +110,7 @@ def test_lcp_reproduces_single_contact(
 @settings(max_examples=100, deadline=None)
 @given(st.integers(2, 3), st.integers(0, 2**32 - 1))
 def test_multi_contact_solution_satisfies_the_lcp(m: int, seed: int) -> None:
-    """The enumerated solution, written as z = (f_n, f_t+, f_t-, lambda), solves MECHANICS.md's
+    """The enumerated solution, written as z = (f_n, f_t+, f_t-, lambda), solves the contact
     LCP: w = M z + q >= 0, z >= 0, w.z = 0."""
     rng = np.random.default_rng(seed)
     r = rng.uniform(-0.05, 0.05, (m, 2))

@@ -1,7 +1,8 @@
 """HERB robot model: kinematic constants and a primitive-only URDF.
 
-Every number comes from /work/shared/herb/KINEMATICS.md (Barrett WAM manual, libbarrett,
-herb_description, BH-280 documentation). The public WAM/BH meshes are GPL, so all geometry here
+Every number comes from the Barrett WAM user manual (D1001: DH table, joint ranges), libbarrett's
+``wam7w.conf``, personalrobotics/herb_description (joint origins, HERB's mounting, OWD limits) and
+the BH-280 documentation (hand kinematics). The public WAM/BH meshes are GPL, so all geometry here
 is built from boxes, cylinders and spheres.
 
 Frames: the world frame is the ``herb_base`` frame (origin on the floor under the robot, x forward,
@@ -64,7 +65,7 @@ ARM_VELOCITY_LIMITS = np.array([0.75, 0.75, 2.0, 2.0, 2.5, 2.5, 2.5])
 #: Peak joint torques [Nm]; enough to hold a 0.5 kg object at full reach (see the tests).
 ARM_EFFORT_LIMITS = np.array([60.0, 60.0, 45.0, 45.0, 12.0, 12.0, 5.0])
 
-#: Relaxed home of the left arm from KINEMATICS.md: hand hanging beside the body, below the
+#: Relaxed home of the left arm (herb_description): hand hanging beside the body, below the
 #: table top and clear of a table placed in front of the robot.
 LEFT_ARM_PARK = np.array([0.64, -1.76, 0.26, 1.96, 1.16, 0.87, 1.43])
 #: Right-arm ready pose: elbow up (elbow at z ~ 1.39 m), hand_tcp at ~(0.61, -0.30, 1.00) above the
