@@ -231,9 +231,10 @@ def _noise(text: str) -> str:
         else:
             resolve_noise(text)
     except ValueError as error:
-        allowed = ", ".join(NOISE_LEVELS)
+        levels = ", ".join(NOISE_LEVELS)
+        why = f" ({error})" if "," in text else ""
         raise argparse.ArgumentTypeError(
-            f"{text!r} is not a noise level ({allowed}) or 'sigma_xy,sigma_theta' ({error})"
+            f"{text!r} is not a noise level ({levels}) or 'sigma_xy,sigma_theta'{why}"
         ) from None
     return text
 
