@@ -29,18 +29,18 @@ from typing import Any
 import numpy as np
 
 from agents.execute import (
+    WAYPOINTS,
     detect_scene,
     execute_trial,
     outcome_summary,
-    plan_actions,
     plan_from_detection,
     true_worlds,
 )
 from agents.jobs import JobSpec, config_digest, run_jobs
-from clutter_gym.files import atomic_write_text
-from clutter_gym.scene import load_scene, resolve_noise, shipped_scene
-from planners.actions import PlannerSettings
-from planners.rearrange import plan_rows, planner_kind
+from clutter_gym.model.files import atomic_write_text
+from clutter_gym.model.scene import load_scene, resolve_noise, shipped_scene
+from planners.actions.settings import PlannerSettings
+from planners.rearrange import planner_kind
 
 TABLE1_NOISES = ("sigma1", "sigma2", "sigma3", "sigma4")
 CLUTTER_LEVELS = ("none", "medium", "high")
@@ -199,12 +199,12 @@ def _plan_and_execute(job: Job) -> dict[str, Any]:
     }
     if not plan.success:
         return result
-    result["plan_digest"] = hashlib.sha256(plan_rows(plan).tobytes()).hexdigest()[:12]
+    result["plan_digest"] = hashlib.sha256(plan.trajectory.rows().tobytes()).hexdigest()[:12]
     # Without noise every true world is the detection: one execution says it all.
     trials = 1 if resolve_noise(scene.noise) == (0.0, 0.0) else job.trials
     if trials == 0:
         return result
-    actions = plan_actions(plan)
+    actions = plan.actions(WAYPOINTS)
     worlds = true_worlds(scene, detection, trials, rng)
     result.update(outcome_summary([execute_trial(w, actions, i) for i, w in enumerate(worlds)]))
     return result

@@ -23,9 +23,9 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon as PolygonPatch
 
 from agents.validate_capture import resolve_kind
-from clutter_gym.files import atomic_write_bytes
-from clutter_gym.objects import Footprint, get_object
-from clutter_gym.scene import NOISE_LEVELS
+from clutter_gym.model.files import atomic_write_bytes
+from clutter_gym.model.noise import NOISE_LEVELS
+from clutter_gym.model.objects import Footprint, get_object
 from planners.capture import CaptureRegion, push_grasp_region
 from planners.hand2d import default_aperture, push_grasp_profile
 

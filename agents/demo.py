@@ -14,7 +14,7 @@ import clutter_gym  # noqa: F401  (registers the env)
 from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
-from clutter_gym.scene import Scene, load_scene, scene_to_dict, shipped_scene
+from clutter_gym.model.scene import Scene, load_scene, scene_to_dict, shipped_scene
 
 FRAME_EVERY = 24  # physics steps between GIF frames: 10 frames per simulated second
 DEFAULT_SCENE = "figures/fig3_can_box_dumbbell"
@@ -61,7 +61,7 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     summary: dict[str, Any] = {
         "scene": scene_to_dict(chosen),
         "planner": "pushing (Rearrange, planners.rearrange)",
-        "plan": policy.plan.summary() if policy.plan else None,
+        "plan": policy.plan.summary().as_dict() if policy.plan else None,
         "planning_failure": policy.failure,
         "success": bool(info["is_success"]),
         "failure": info["failure"],

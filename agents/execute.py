@@ -26,16 +26,16 @@ from agents.jobs import JobSpec, config_digest, run_jobs
 from agents.plan_figure import write_timeline
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
-from clutter_gym.objects import get_object
-from clutter_gym.perception import detect
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.scene import Scene, load_scene, resolve_noise, scene_to_dict
-from clutter_gym.world import get_surface
-from planners.actions import PlannerSettings
-from planners.rearrange import Plan, chunk_rows, plan_retrieval, planner_kind
-from planners.uncertainty import ObjectBelief, sample_count, sample_poses
+from clutter_gym.model import herb as hm
+from clutter_gym.model.noise import detect, resolve_noise
+from clutter_gym.model.scene import Scene, load_scene, scene_to_dict
+from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS
+from clutter_gym.model.world import get_surface
+from planners.actions.settings import PlannerSettings
+from planners.rearrange import Plan, plan_retrieval, planner_kind
+from planners.uncertainty import ObjectBelief, beliefs, sample_count
 
-WAYPOINTS = 16
+WAYPOINTS = DEFAULT_WAYPOINTS
 WORLD_ATTEMPTS = 200
 FRAME_EVERY = 24
 
@@ -72,20 +72,6 @@ def true_worlds(
     return worlds
 
 
-def _noise_field(noise: str) -> str | tuple[float, float]:
-    """A noise level name, or "sigma_xy,sigma_theta" as numbers (validated by resolve_noise)."""
-    if "," not in noise:
-        resolve_noise(noise)
-        return noise
-    xy, theta = noise.split(",", 1)
-    try:
-        value = (float(xy), float(theta))
-    except ValueError:
-        raise ValueError(f"noise: {noise!r}; expected a level or 'xy,theta' numbers") from None
-    resolve_noise(value)
-    return value
-
-
 def plan_from_detection(
     scene: Scene,
     detection: np.ndarray,
@@ -96,25 +82,21 @@ def plan_from_detection(
 ) -> tuple[Plan, list[ObjectBelief]]:
     sigma = resolve_noise(scene.noise)
     n = samples or sample_count(sigma)
-    beliefs = [
-        ObjectBelief(o.name, get_object(o.kind), tuple(d), sample_poses(d, sigma, n, rng))
+    detections = [
+        (o.name, o.spec, (float(d[0]), float(d[1]), float(d[2])))
         for o, d in zip(scene.objects, detection, strict=True)
     ]
+    believed = beliefs(detections, sigma, n, rng)
     plan = plan_retrieval(
         get_surface(scene.surface),
-        beliefs,
+        believed,
         scene.goal.object,
         np.asarray(hm.RIGHT_ARM_HOME),
         settings,
         scene.goal.region,
         planner,
     )
-    return plan, beliefs
-
-
-def plan_actions(plan: Plan) -> list[np.ndarray]:
-    """The plan as env trajectory actions, in order."""
-    return [c for step in plan.steps for c in chunk_rows(step.motion.rows(), WAYPOINTS)]
+    return plan, believed
 
 
 def execute(
@@ -207,10 +189,10 @@ def run_plan(
     time_budget: float = 20.0,
     samples: int | None = None,
     workers: int = 2,
-    noise: str | None = None,
+    noise: str | tuple[float, float] | None = None,
 ) -> dict[str, Any]:
     """Plan for a scene from one detection; execute the plan on ``trials`` true worlds.
-    ``noise`` (a level name or "xy,theta") replaces the scene's noise."""
+    ``noise`` (a level name or (sigma_xy, sigma_theta)) replaces the scene's noise."""
     planner_kind(planner)
     if trials < 0:
         raise ValueError(f"trials: {trials}; must be >= 0")
@@ -218,7 +200,7 @@ def run_plan(
         raise ValueError(f"samples: {samples}; must be >= 1")
     scene = load_scene(scene_path)
     if noise is not None:
-        scene = replace(scene, noise=_noise_field(noise))
+        scene = replace(scene, noise=noise)
     rng = np.random.default_rng(seed)
     detection = detect_scene(scene, rng)
     settings = PlannerSettings(time_budget=time_budget, seed=seed)
@@ -229,13 +211,13 @@ def run_plan(
         "noise": list(resolve_noise(scene.noise)),
         "samples": len(beliefs[0].samples),
         "detection": np.round(detection, 4).tolist(),
-        **plan.summary(),
+        **plan.summary().as_dict(),
     }
     if figure is not None and plan.success:
         write_timeline(plan, beliefs, get_surface(scene.surface), figure)
         report["figure"] = str(figure)
     if plan.success and (trials or gif):
-        actions = plan_actions(plan)
+        actions = plan.actions(WAYPOINTS)
         worlds = true_worlds(scene, detection, max(trials, 1), rng)
         if gif is not None:
             with gif_writer(gif, fps=10) as frames:

@@ -16,7 +16,7 @@ from typing import Any
 from tqdm import tqdm
 
 from agents.execute import run_plan
-from clutter_gym.scene import shipped_scene
+from clutter_gym.model.scene import shipped_scene
 
 SCENES = (
     "figures/fig3_can_box_dumbbell",

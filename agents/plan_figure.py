@@ -22,10 +22,10 @@ from matplotlib.patches import Polygon as PolygonPatch
 from scipy.spatial import ConvexHull
 
 from agents.capture_figure import draw_outline
-from clutter_gym.files import atomic_write_bytes
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import Surface
-from planners.collision import Volume, part_points
+from clutter_gym.model.collision import Volume, part_points
+from clutter_gym.model.files import atomic_write_bytes
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.world import Surface
 from planners.rearrange import Plan
 from planners.uncertainty import ObjectBelief
 
@@ -77,7 +77,7 @@ def _panel(
     final = moved.nu[-1]
     for pose in _view(final[:: max(1, len(final) // 60)]):
         draw_outline(ax, spec.footprint, pose, color="tab:green", lw=0.6, alpha=0.6)
-    rows = step.result.motion.rows()
+    rows = step.result.trajectory.rows()
     tcp = kinematics.fk_tcp_batch(rows[:, :7])[:, :3, 3]
     ax.plot(tcp[:, 1], tcp[:, 0], "k-", lw=1.5, zorder=4)
     ax.plot(tcp[0, 1], tcp[0, 0], "ko", ms=3, zorder=4)

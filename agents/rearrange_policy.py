@@ -13,43 +13,12 @@ from collections import deque
 
 import numpy as np
 
-from clutter_gym.env import OBJECT_KINDS
-from clutter_gym.objects import get_object
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.world import SURFACES, Surface
-from planners.actions import PlannerSettings
-from planners.rearrange import Plan, chunk_rows, plan_retrieval, planner_kind
-from planners.uncertainty import ObjectBelief, sample_count, sample_poses
-
-
-def beliefs_from_detection(
-    obs: dict[str, np.ndarray],
-    names: tuple[str, ...] | None,
-    samples: int | None,
-    rng: np.random.Generator,
-) -> tuple[list[ObjectBelief], str, Surface, tuple[tuple[float, float], tuple[float, float]]]:
-    """Beliefs of every object in an observation, the goal's name, the surface and goal region.
-    Object names come from ``names`` (the env's ``info["object_names"]``) or are made up from
-    the kind and slot."""
-    sigma = (float(obs["noise"][0]), float(obs["noise"][1]))
-    n = samples or sample_count(sigma)
-    beliefs = []
-    for slot in np.flatnonzero(obs["object_mask"]):
-        kind = OBJECT_KINDS[int(obs["object_kinds"][slot]) - 1]
-        name = names[slot] if names is not None else f"{kind}_{slot}"
-        detected = np.asarray(obs["object_poses"][slot], dtype=float)
-        beliefs.append(
-            ObjectBelief(
-                name,
-                get_object(kind),
-                (float(detected[0]), float(detected[1]), float(detected[2])),
-                sample_poses(detected, sigma, n, rng),
-            )
-        )
-    goal = beliefs[int(obs["goal_object"])].name
-    surface = list(SURFACES.values())[int(obs["surface"])]
-    x0, x1, y0, y1 = (float(v) for v in obs["goal_region"])
-    return beliefs, goal, surface, ((x0, x1), (y0, y1))
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.observation import Observation, decode
+from clutter_gym.model.trajectory import hold_action
+from planners.actions.settings import PlannerSettings
+from planners.rearrange import Plan, plan_retrieval, planner_kind
+from planners.uncertainty import beliefs, sample_count
 
 
 class RearrangePolicy:
@@ -78,6 +47,7 @@ class RearrangePolicy:
         self.failure = ""
         self._queue: deque[np.ndarray] = deque()
         self._steps_left: deque[int] = deque()  # env steps per planned action, in order
+        self._limits = ArmKinematics("right")
 
     @property
     def plan(self) -> Plan | None:
@@ -88,7 +58,7 @@ class RearrangePolicy:
         self.plans.append(plan)
         self._enqueue(plan)
 
-    def __call__(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+    def __call__(self, obs: Observation) -> np.ndarray:
         if not self._queue and not self.failure and (not self.plans or self.closed_loop):
             if not self.plans or not self.plans[-1].success or self._replan_due():
                 self._plan(obs)
@@ -97,7 +67,10 @@ class RearrangePolicy:
             if self._steps_left[0] == 0:
                 self._steps_left.popleft()
             return self._queue.popleft()
-        return self._hold(obs)
+        seen = decode(obs)
+        return hold_action(
+            seen.arm, seen.hand, self.waypoints, self._limits.lower, self._limits.upper
+        )
 
     def _replan_due(self) -> bool:
         # In closed loop every planned action is followed by a new plan, until the last one
@@ -105,17 +78,17 @@ class RearrangePolicy:
         last = self.plans[-1]
         return len(last.steps) > 1
 
-    def _plan(self, obs: dict[str, np.ndarray]) -> None:
-        beliefs, goal, surface, region = beliefs_from_detection(
-            obs, self.names, self.samples, self.rng
-        )
+    def _plan(self, obs: Observation) -> None:
+        seen = decode(obs, self.names)
+        n = self.samples or sample_count(seen.sigma)
+        detections = [(o.name, o.spec, o.detected) for o in seen.objects]
         plan = plan_retrieval(
-            surface,
-            beliefs,
-            goal,
-            np.asarray(obs["arm_joints"], dtype=float),
+            seen.surface,
+            beliefs(detections, seen.sigma, n, self.rng),
+            seen.goal,
+            seen.arm,
             self.settings,
-            region,
+            seen.goal_region,
             self.planner,
         )
         self.plans.append(plan)
@@ -126,12 +99,6 @@ class RearrangePolicy:
 
     def _enqueue(self, plan: Plan, first_only: bool = False) -> None:
         for step in plan.steps[:1] if first_only else plan.steps:
-            chunks = chunk_rows(step.motion.rows(), self.waypoints)
-            self._queue.extend(chunks)
-            self._steps_left.append(len(chunks))
-
-    def _hold(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        spread = float(np.clip(obs["hand"][0] / hm.HAND_SPREAD_RANGE[1], 0.0, 1.0))
-        closure = float(np.clip(obs["hand"][1] / hm.HAND_PROXIMAL_RANGE[1], 0.0, 1.0))
-        row = np.r_[obs["arm_joints"], spread, closure]
-        return np.tile(row, (self.waypoints, 1)).astype(np.float32)
+            actions = step.trajectory.actions(self.waypoints)
+            self._queue.extend(actions)
+            self._steps_left.append(len(actions))

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import Surface
-from planners.collision import make_checker
+from clutter_gym.model.collision import make_checker
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.observation import Observation, decode
+from clutter_gym.model.trajectory import hold_action
+from clutter_gym.model.world import Surface
 from planners.direct_grasp import (
     PRESHAPE_CLOSURE,
     GraspRequest,
@@ -29,32 +31,29 @@ class DirectGraspPolicy:
         self.surface_z = surface.top_z
         # Every IK solution is checked with fcl against the table or shelf and the arm itself.
         self.collision_free = make_checker(surface, {}).checker(
-            hand=(0.0, PRESHAPE_CLOSURE), objects=False
+            hand=HandCommand(0.0, PRESHAPE_CLOSURE), objects=False
         )
         self.rng = np.random.default_rng(seed)
-        self._bounds = (
-            np.r_[self.kinematics.lower, 0.0, 0.0],
-            np.r_[self.kinematics.upper, 1.0, 1.0],
-        )
         self.plan: np.ndarray | None = None
         self.failure = ""
 
-    def __call__(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+    def __call__(self, obs: Observation) -> np.ndarray:
+        seen = decode(obs)
         if self.plan is None and not self.failure:
             goal = int(obs["goal_object"])
             request = GraspRequest(
-                pose=tuple(float(v) for v in obs["object_poses"][goal]),  # type: ignore[arg-type]
-                height=float(obs["object_sizes"][goal][2]),
+                pose=seen.objects[goal].detected,
+                height=seen.objects[goal].spec.height,
                 surface_z=self.surface_z,
             )
             try:
-                self.plan = plan_direct_grasp(
+                grasp = plan_direct_grasp(
                     self.kinematics, request, self.waypoints, self.rng, self.collision_free
                 )
-                return self.plan
             except PlanningError as error:
                 self.failure = str(error)
-        spread = float(obs["hand"][0]) / hm.HAND_SPREAD_RANGE[1]
-        closure = float(obs["hand"][1]) / hm.HAND_PROXIMAL_RANGE[1]
-        hold = np.clip(np.r_[obs["arm_joints"], spread, closure], *self._bounds)
-        return np.tile(hold, (self.waypoints, 1)).astype(np.float32)
+            else:
+                (self.plan,) = grasp.actions(self.waypoints)
+                return self.plan
+        lower, upper = self.kinematics.lower, self.kinematics.upper
+        return hold_action(seen.arm, seen.hand, self.waypoints, lower, upper)

@@ -32,18 +32,20 @@ import numpy as np
 from agents.jobs import JobSpec, config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
-from clutter_gym.objects import OBJECTS, ObjectSpec, get_object
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.scene import SCENE_FORMAT
-from clutter_gym.world import TABLE
+from clutter_gym.model import herb as hm
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.objects import OBJECTS, ObjectSpec, get_object
+from clutter_gym.model.scene import SCENE_FORMAT
+from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS, Segment, Trajectory
+from clutter_gym.model.world import TABLE
+from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT, grasp_height, tcp_pose
 from planners.capture import push_grasp_region
-from planners.direct_grasp import LIFT, approach_rotation, grasp_height
 from planners.hand2d import default_aperture, push_grasp_profile
 
 ALIASES = {"can": "soda_can", "bottle": "juice_bottle", "poptart": "poptart_box"}
 PUSH_DISTANCE = 0.25  # m
-WAYPOINTS = 16
+WAYPOINTS = DEFAULT_WAYPOINTS
 PUSH_WAYPOINTS = 10
 LIFT_WAYPOINTS = 4
 GRID_Y = 0.20  # m either side of the hand axis
@@ -109,15 +111,13 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> PushSet
     rng = np.random.default_rng(0)
     heading = math.radians(rotation_deg)
     direction = np.array([math.cos(heading), math.sin(heading), 0.0])
-    rotation = approach_rotation(direction)
-    closure = push_grasp_profile(aperture).closure
+    preshaped = HandCommand(0.0, push_grasp_profile(aperture).closure)
+    closed = HandCommand(0.0, GRASP_CLOSURE)
     z = TABLE.top_z + grasp_height(spec.height)
     tcp_offset = hm.HAND_TCP_OFFSET * direction
 
     def pose(tcp: np.ndarray) -> np.ndarray:
-        t = np.eye(4)
-        t[:3, :3], t[:3, 3] = rotation, tcp
-        return t
+        return tcp_pose(tcp, direction)
 
     # Start points tried nearest the robot's usual reach first.
     for x in np.arange(0.66, 0.86, 0.02):
@@ -136,16 +136,20 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> PushSet
             )
             if lift is None:
                 continue
-            rows = [np.r_[q, 0.0, closure] for q in push]
-            rows.append(np.r_[push[-1], 0.0, 1.0])
-            rows.extend(np.r_[q, 0.0, 1.0] for q in lift[1:])
-            rows.extend([rows[-1]] * (WAYPOINTS - len(rows)))
+            push_grasp = Trajectory(
+                (
+                    Segment("push", push, preshaped),
+                    Segment("close", push[-1:], closed),
+                    Segment("lift", lift[1:], closed),
+                )
+            )
+            (action,) = push_grasp.actions(WAYPOINTS)
             return PushSetup(
                 rotation_deg,
                 (float(hand_base[0]), float(hand_base[1]), float(hand_base[2])),
                 heading,
                 tuple(float(v) for v in q0),
-                np.asarray(rows, dtype=np.float32),
+                action,
             )
     raise RuntimeError(f"no reachable straight push at heading {rotation_deg} deg")
 

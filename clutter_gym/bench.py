@@ -22,8 +22,8 @@ import numpy as np
 from tqdm import tqdm
 
 import clutter_gym  # noqa: F401  (registers the env)
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.sim import native_stdout_muted
+from clutter_gym.model import herb as hm
+from clutter_gym.sim.simulator import native_stdout_muted
 
 
 def rss_mb() -> float:

@@ -4,61 +4,44 @@ The env composes the pieces and owns none of their logic: a `Simulator` (pybulle
 (robot and its controllers), a `Scene` (what is where), a controller (how actions move the arm)
 and a `RetrievalTask` (success, failure, reward). See the README for the spaces.
 
-Observation (a Dict of fixed-shape arrays; M = `max_objects`):
-- arm_joints (7,), arm_velocities (7,): right arm state [rad, rad/s]
-- hand (4,): spread and F1, F2, F3 proximal angles [rad]
-- tcp_pose (7,): position [m] and quaternion (x, y, z, w) of the hand's TCP
-- object_poses (M, 3): DETECTED planar poses (x, y, theta): truth + Gaussian noise, redrawn
-  every step
-- object_sizes (M, 3): footprint extents along the object's x and y, and height [m]
-- object_kinds (M,): 1 + index into `clutter_gym.env.OBJECT_KINDS` (the library's order); 0 for an
-  empty slot
-- object_mask (M,): 1 where a slot holds an object
-- goal_object (): slot of the goal object
-- goal_region (4,): x_min, x_max, y_min, y_max [m]
-- noise (2,): sigma_xy [m], sigma_theta [rad] of the detections
-- surface (): 0 table, 1 shelf
+The observation is described (and encoded) in `clutter_gym.model.observation`.
 True poses are only in `info["true_object_poses"]`, for evaluation.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 import os
 from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
-from clutter_gym.controllers import EndEffectorDeltaController, TrajectoryController, real_array
-from clutter_gym.errors import invalid, shown
-from clutter_gym.objects import OBJECTS, Footprint, get_object
-from clutter_gym.perception import detect
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.herb import HandCommand, Herb
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.scene import (
-    LEVELS,
+from clutter_gym.model import herb as hm
+from clutter_gym.model.fields import integer, invalid, positive_number, shown
+from clutter_gym.model.herb import OPEN_HAND, HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.noise import detect, resolve_noise
+from clutter_gym.model.objects import get_object
+from clutter_gym.model.observation import (
     MAX_OBJECTS,
-    Level,
-    Scene,
-    generate_scene,
-    load_scene,
-    resolve_noise,
+    Observation,
+    encode_scene,
+    encode_state,
+    observation_space,
 )
-from clutter_gym.sim import Camera, Simulator
-from clutter_gym.task import REWARD_TYPES, Outcome, RetrievalTask, RewardType
-from clutter_gym.world import SURFACES, get_surface
+from clutter_gym.model.scene import LEVELS, Level, Scene, generate_scene, load_scene
+from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS
+from clutter_gym.model.transforms import yaw_of_quaternion
+from clutter_gym.model.world import SURFACES, get_surface
+from clutter_gym.sim.controllers import EndEffectorDeltaController, TrajectoryController, real_array
+from clutter_gym.sim.robot import Herb
+from clutter_gym.sim.simulator import Camera, Simulator
+from clutter_gym.sim.task import REWARD_TYPES, Outcome, RetrievalTask, RewardType
 
-OBJECT_KINDS = tuple(OBJECTS)
-Observation = dict[str, Any]  # ndarrays, and np.int64 for the Discrete entries
 ControlMode = Literal["trajectory", "ee_delta"]
 CONTROL_MODES: tuple[ControlMode, ...] = ("trajectory", "ee_delta")
 DEFAULT_STEP_LIMITS: dict[str, int] = {"trajectory": 10, "ee_delta": 300}
-WORLD_REACH = 5.0  # m: bounds every position in the world, so the observation spaces are finite
 SETTLE_STEPS = 24  # physics steps after building a scene, so objects rest on the surface
 RESET_OPTIONS = ("scene", "level", "arm", "hand")
 """reset(options=...), a dict: scene (Scene, dict or JSON path), level (for a sampled scene), arm (7
@@ -74,7 +57,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         self,
         render_mode: str | None = None,
         control_mode: ControlMode = "trajectory",
-        waypoints: int = 16,
+        waypoints: int = DEFAULT_WAYPOINTS,
         level: Level | None = None,
         surface: str = "table",
         noise: str | tuple[float, float] | None = None,
@@ -90,19 +73,19 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         _check_choice("surface", surface, tuple(SURFACES))
         _check_choice("reward_type", reward_type, REWARD_TYPES)
         if camera is not None and not isinstance(camera, Camera):
-            raise invalid("camera", camera, "None or a clutter_gym.sim.Camera")
+            raise invalid("camera", camera, "None or a clutter_gym.sim.simulator.Camera")
         self.render_mode = render_mode
         self.control_mode = control_mode
         self.level = level
         self.surface_name = surface
         self.noise_override = None if noise is None else resolve_noise(noise, "noise")
         self.reward_type: RewardType = reward_type
-        self.waypoints = _integer("waypoints", waypoints, 1)
-        self._max_hand_speed = _positive_number("max_hand_speed", max_hand_speed, "m/s")
+        self.waypoints = integer("waypoints", waypoints, 1)
+        self._max_hand_speed = positive_number("max_hand_speed", max_hand_speed, "m/s")
         self.step_limit = (
             DEFAULT_STEP_LIMITS[control_mode]
             if step_limit is None
-            else _integer("step_limit", step_limit, 1)
+            else integer("step_limit", step_limit, 1)
         )
         self.camera = Camera() if camera is None else camera
 
@@ -111,10 +94,10 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         self._build_world(
             generate_scene("none", seed=0, surface=surface),
             np.asarray(hm.RIGHT_ARM_HOME),
-            HandCommand(),
+            OPEN_HAND,
         )
         self.action_space = self._controller.action_space
-        self.observation_space = _observation_space(MAX_OBJECTS)
+        self.observation_space = observation_space(MAX_OBJECTS)
 
         self._steps = 0
         self._sim_steps = 0
@@ -127,7 +110,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Observation, dict[str, Any]]:
         # Everything is checked, and a given scene loaded, before the RNG or the world changes.
-        seed = None if seed is None else _integer("seed", seed, 0)
+        seed = None if seed is None else integer("seed", seed, 0)
         scene, level, arm, hand = self._reset_options(options)
         super().reset(seed=seed)
         if scene is None:
@@ -177,7 +160,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         """Render a frame now and every `every_sim_steps` physics steps while actions execute,
         and hand each to `on_frame` (e.g. `clutter_gym.media.GifStream.add`). Frames are
         streamed, never kept here: a long rollout would otherwise hold hundreds of them."""
-        every = _integer("every_sim_steps", every_sim_steps, 1)
+        every = integer("every_sim_steps", every_sim_steps, 1)
         if not callable(on_frame):
             raise invalid("on_frame", on_frame, "a callable taking an RGB frame (H, W, 3)")
         self._recording_every = every
@@ -233,7 +216,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     @staticmethod
     def _start_hand(hand: object) -> HandCommand:
         if hand is None:
-            return HandCommand()
+            return OPEN_HAND
         values = real_array(hand)
         if values is None or values.shape != (2,) or not np.all((values >= 0.0) & (values <= 1.0)):
             raise invalid("options['hand']", hand, "(spread, closure), each in [0, 1]")
@@ -256,7 +239,7 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
             self.sim.sleep(placement.name)
         self._sim_steps = 0
         self._sigma = self.noise_override or resolve_noise(scene.noise)
-        self._static_obs = self._scene_observation()
+        self._static_obs = encode_scene(scene, self._sigma)
         self._task = RetrievalTask(self.sim, self.herb, scene, self._surface, self._specs)
         if self.control_mode == "trajectory":
             traj = TrajectoryController(
@@ -284,52 +267,14 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         poses = np.zeros((len(self._scene.objects), 3))
         for i, placement in enumerate(self._scene.objects):
             pos, quat = self.sim.base_pose(placement.name)
-            x, y, z, w = quat
-            poses[i] = (
-                pos[0],
-                pos[1],
-                np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)),
-            )
+            poses[i] = (pos[0], pos[1], yaw_of_quaternion(quat))
         return poses
-
-    def _scene_observation(self) -> Observation:
-        """The parts of the observation fixed for an episode, computed once per reset."""
-        m = MAX_OBJECTS
-        sizes = np.zeros((m, 3), dtype=np.float32)
-        kinds = np.zeros(m, dtype=np.int64)
-        mask = np.zeros(m, dtype=np.int8)
-        names = [o.name for o in self._scene.objects]
-        for i, placement in enumerate(self._scene.objects):
-            spec = self._specs[placement.name]
-            sizes[i] = (*_extents(spec.footprint), spec.height)
-            kinds[i] = 1 + OBJECT_KINDS.index(placement.kind)
-            mask[i] = 1
-        (x_lo, x_hi), (y_lo, y_hi) = self._scene.goal.region
-        return {
-            "object_sizes": sizes,
-            "object_kinds": kinds,
-            "object_mask": mask,
-            "goal_object": np.int64(names.index(self._scene.goal.object)),
-            "goal_region": np.array([x_lo, x_hi, y_lo, y_hi], dtype=np.float32),
-            "noise": np.array(self._sigma, dtype=np.float32),
-            "surface": np.int64(list(SURFACES).index(self._scene.surface)),
-        }
 
     def _observation(self, true_poses: np.ndarray) -> Observation:
         q, dq = self.herb.arm_state()
-        tcp_pos, tcp_quat = self.herb.tcp_pose()
-        poses = np.zeros((MAX_OBJECTS, 3), dtype=np.float32)
-        # Clipped only so that absurd custom noise levels stay inside the observation space.
-        poses[: len(true_poses)] = np.clip(
-            detect(true_poses, self._sigma, self.np_random), -WORLD_REACH, WORLD_REACH
-        )
-        obs = {
-            "arm_joints": q.astype(np.float32),
-            "arm_velocities": np.clip(dq, -10.0, 10.0).astype(np.float32),
-            "hand": self.herb.hand_state().astype(np.float32),
-            "tcp_pose": np.r_[tcp_pos, tcp_quat].astype(np.float32),
-            "object_poses": poses,
-        }
+        tcp_position, tcp_quaternion = self.herb.tcp_pose()
+        detected = detect(true_poses, self._sigma, self.np_random)
+        obs = encode_state(q, dq, self.herb.hand_state(), tcp_position, tcp_quaternion, detected)
         obs.update({key: value.copy() for key, value in self._static_obs.items()})
         return obs
 
@@ -348,48 +293,11 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
         }
 
 
-def _observation_space(m: int) -> spaces.Dict:
-    n_kinds = len(OBJECT_KINDS)
-    reach = WORLD_REACH
-    return spaces.Dict(
-        {
-            "arm_joints": spaces.Box(-2 * np.pi, 2 * np.pi, (7,), np.float32),
-            "arm_velocities": spaces.Box(-10.0, 10.0, (7,), np.float32),
-            "hand": spaces.Box(-0.5, 3.5, (4,), np.float32),
-            "tcp_pose": spaces.Box(-reach, reach, (7,), np.float32),
-            "object_poses": spaces.Box(-reach, reach, (m, 3), np.float32),
-            "object_sizes": spaces.Box(0.0, reach, (m, 3), np.float32),
-            "object_kinds": spaces.MultiDiscrete([n_kinds + 1] * m),
-            "object_mask": spaces.MultiBinary(m),
-            "goal_object": spaces.Discrete(m),
-            "goal_region": spaces.Box(-reach, reach, (4,), np.float32),
-            "noise": spaces.Box(0.0, reach, (2,), np.float32),
-            "surface": spaces.Discrete(len(SURFACES)),
-        }
-    )
-
-
 def _check_choice(field: str, value: object, allowed: tuple[str | None, ...]) -> None:
     """Only a str (or None) is looked up: `in` compares an array element-wise, so a
     one-element array would pass and a longer one would raise numpy's ambiguity error."""
     if not (value is None or isinstance(value, str)) or value not in allowed:
         raise invalid(field, value, "one of " + ", ".join(map(repr, allowed)))
-
-
-def _integer(field: str, value: object, minimum: int) -> int:
-    """A Python or numpy integer >= `minimum`; not a bool or a float, which int() would
-    silently turn into 1 or truncate (2.7 steps -> 2)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise invalid(field, value, f"an integer >= {minimum}")
-    return int(value)
-
-
-def _positive_number(field: str, value: object, unit: str) -> float:
-    """A finite Python or numpy real > 0; not a bool or a string."""
-    number = float(value) if isinstance(value, numbers.Real) else math.nan
-    if isinstance(value, bool) or not (math.isfinite(number) and number > 0):
-        raise invalid(field, value, f"a finite number > 0 ({unit})")
-    return number
 
 
 def _scene_option(scene: object) -> Scene | None:
@@ -405,10 +313,3 @@ def _scene_option(scene: object) -> Scene | None:
     raise invalid(
         "options['scene']", scene, "None, a Scene, a scene dict or a non-empty JSON file path"
     )
-
-
-def _extents(footprint: Footprint) -> tuple[float, float]:
-    """Footprint size along the object's own x and y axes."""
-    if footprint.shape == "circle":
-        return 2.0 * footprint.radius, 2.0 * footprint.radius
-    return 2.0 * footprint.half_extents[0], 2.0 * footprint.half_extents[1]

@@ -12,7 +12,7 @@ from typing import IO, Any
 import numpy as np
 from PIL import GifImagePlugin, Image
 
-from clutter_gym.files import atomic_file, atomic_write_bytes, atomic_write_text
+from clutter_gym.model.files import atomic_file, atomic_write_bytes, atomic_write_text
 
 
 def write_json(path: Path, payload: dict[str, Any]) -> None:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from clutter_gym.objects import Footprint, get_object
+from clutter_gym.model.objects import Footprint, get_object
 from planners.capture import push_grasp_region, sweep_region
 from planners.hand2d import MAX_APERTURE, default_aperture
 

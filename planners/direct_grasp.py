@@ -1,4 +1,4 @@
-"""A direct side grasp: the simplest plan that retrieves an object, used by `clutter-gym demo`.
+"""A direct side grasp: the simplest plan that retrieves an object (the scripted baseline).
 
 The hand comes in horizontally along the line from the right shoulder to the detected object,
 fingers preshaped open in a horizontal plane, closes and lifts. It trusts the single detected
@@ -13,14 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.model import herb as hm
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.trajectory import Segment, Trajectory
+from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT, grasp_height, tcp_pose
 
 PREGRASP_DISTANCE = 0.12  # m behind the object centre along the approach
 HOVER_HEIGHT = 0.20  # m above the pregrasp for the transit from home
-LIFT = 0.15  # m, more than the task's 0.10 m
 PRESHAPE_CLOSURE = 0.45  # fingers angled forward and open wider than a juice bottle
-GRASP_CLOSURE = 1.0
 SURFACE_CLEARANCE = 0.05  # m: the hand_base frame stays this far above the surface
 HEADING_OFFSETS = np.deg2rad([0, 10, -10, 20, -20, 30, -30, 40, -40, 50, -50, 60, -60])
 
@@ -36,28 +37,15 @@ class GraspRequest:
     surface_z: float
 
 
-def grasp_height(height: float) -> float:
-    """TCP height above the surface: mid-object, but high enough that the wrist housing
-    (4.5 cm radius, level with the TCP in a horizontal approach) clears the surface."""
-    return min(max(0.5 * height, 0.075), 0.09)
-
-
-def approach_rotation(direction: np.ndarray) -> np.ndarray:
-    """Hand orientation with the approach axis (hand z) horizontal along `direction` and the
-    finger plane horizontal, F3 on the robot's left of the object, as in HERB's home pose."""
-    z = np.array([direction[0], direction[1], 0.0]) / np.hypot(direction[0], direction[1])
-    y = np.array([z[1], -z[0], 0.0])  # -(world z x approach): the home pose's roll
-    return np.column_stack([np.cross(y, z), y, z])
-
-
 def plan_direct_grasp(
     kinematics: ArmKinematics,
     request: GraspRequest,
     waypoints: int,
     rng: np.random.Generator,
     accept: Callable[[np.ndarray], bool] | None = None,
-) -> np.ndarray:
-    """A (waypoints, 9) trajectory action: hover, pregrasp, straight approach, close, lift.
+) -> Trajectory:
+    """Hover, pregrasp, straight approach, close, lift: a trajectory that fits one env action
+    of ``waypoints`` rows.
 
     Tries approach headings around the line from the shoulder to the object, nearest first:
     the arm's joint limits rule out some headings at some places on the table.
@@ -71,16 +59,14 @@ def plan_direct_grasp(
         heading = base_heading + offset
         direction = np.array([np.cos(heading), np.sin(heading), 0.0])
         try:
-            rows = _grasp_along(kinematics, centre, direction, request.surface_z, rng, accept)
+            grasp = _grasp_along(kinematics, centre, direction, request.surface_z, rng, accept)
         except PlanningError as error:
             failures.append(str(error))
             continue
-        if len(rows) > waypoints:
-            raise PlanningError(
-                f"the grasp needs {len(rows)} waypoints; the env allows {waypoints}"
-            )
-        rows.extend([rows[-1]] * (waypoints - len(rows)))
-        return np.asarray(rows, dtype=np.float32)
+        rows = len(grasp.rows())
+        if rows > waypoints:
+            raise PlanningError(f"the grasp needs {rows} waypoints; the env allows {waypoints}")
+        return grasp
     most_common = max(set(failures), key=failures.count)
     raise PlanningError(f"no approach heading works; most common reason: {most_common}")
 
@@ -92,13 +78,9 @@ def _grasp_along(
     surface_z: float,
     rng: np.random.Generator,
     accept: Callable[[np.ndarray], bool] | None,
-) -> list[np.ndarray]:
-    rotation = approach_rotation(direction)
-
+) -> Trajectory:
     def pose(position: np.ndarray) -> np.ndarray:
-        t = np.eye(4)
-        t[:3, :3], t[:3, 3] = rotation, position
-        return t
+        return tcp_pose(position, direction)
 
     def clear(q: np.ndarray) -> bool:
         hand_z = kinematics.fk(q)[2, 3]
@@ -125,7 +107,11 @@ def _grasp_along(
         raise PlanningError("no straight lift from the grasp")
     descend, approach = rise[::-1], retreat[::-1]
 
-    rows = [np.r_[q, 0.0, PRESHAPE_CLOSURE] for q in (*descend, *approach[1:])]
-    rows.append(np.r_[approach[-1], 0.0, GRASP_CLOSURE])
-    rows.extend(np.r_[q, 0.0, GRASP_CLOSURE] for q in lift[1:])
-    return rows
+    preshape, closed = HandCommand(0.0, PRESHAPE_CLOSURE), HandCommand(0.0, GRASP_CLOSURE)
+    return Trajectory(
+        (
+            Segment("approach", np.vstack([descend, approach[1:]]), preshape),
+            Segment("close", approach[-1:], closed),
+            Segment("lift", lift[1:], closed),
+        )
+    )

@@ -21,8 +21,8 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from clutter_gym.robot.kinematics import ArmKinematics
-from planners.collision import interpolate
+from clutter_gym.model.collision import interpolate
+from clutter_gym.model.kinematics import ArmKinematics
 
 DOF = 7
 

@@ -3,7 +3,7 @@
 Why: capture regions are computed in 2D against the hand as an object sees it when the hand
 moves parallel to the support with its finger plane horizontal (the push-grasp of the paper,
 §2.2.1, and HERB's side approach in `planners.direct_grasp`). Every number comes from
-`clutter_gym.robot.herb_model`.
+`clutter_gym.model.herb`.
 
 Geometry (finger plane = pushing plane; a finger's coordinates are u, outward from the hand
 axis, and z, forward along the approach axis from ``hand_base``):
@@ -15,7 +15,7 @@ axis, and z, forward along the approach axis from ``hand_base``):
 * Fingers: F1 and F2 sit at x = -+HAND_AW, above and below the pushing plane; at spread 0 both
   project onto the same side (u < 0 in the hand), F3 onto the other. Each side is a proximal
   box from (A1, K) of length A2 at angle q from the palm plane, a distal box of length A3 at
-  q + q_d + HAND_DISTAL_BEND (q_d = q * HAND_DISTAL_COUPLING, as `clutter_gym.robot.herb`
+  q + q_d + HAND_DISTAL_BEND (q_d = q * HAND_DISTAL_COUPLING, as `clutter_gym.sim.robot`
   drives it), all 2 * D3 thick, and a cylindrical fingertip of radius D3 at the distal end.
 * Aperture a: the distance between the inner surfaces of the two fingertips,
   a = 2 (u_tip(q) - D3). It is used for proximal angles from the one at which the distal
@@ -41,9 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from clutter_gym.objects import Footprint
-from clutter_gym.robot import herb_model as hm
-from planners.pushing import Circle, ConvexPolygon, Pusher, rectangle
+from clutter_gym.model import herb as hm
+from clutter_gym.model.objects import Footprint
+from planners.push_simulation import Circle, ConvexPolygon, Pusher, rectangle
 
 _D3 = hm.HAND_D3
 _K = hm.HAND_KNUCKLE_HEIGHT

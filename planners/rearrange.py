@@ -16,32 +16,23 @@ keeps plans short (the paper's aim in §2.2.6).
 
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from typing import Any
 
 import numpy as np
 
-from clutter_gym.robot.geometry import ArmGeometry, Hand
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import Surface
-from planners.actions import (
-    ACTIONS,
-    CAN_MOVE,
-    ActionResult,
-    AwayFrom,
-    BudgetExceeded,
-    Goal,
-    Motion,
-    PlannerSettings,
-    PlanningContext,
-    Retrieve,
-    Segment,
-)
-from planners.collision import RobotCollision, Volume
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.trajectory import Segment, Trajectory
+from clutter_gym.model.world import Region, Surface
+from planners.actions import ACTIONS, CAN_MOVE
+from planners.actions.arm import Arm
+from planners.actions.context import PlanningContext
+from planners.actions.goals import AwayFrom, Goal, Retrieve
+from planners.actions.results import ActionResult, Failure
+from planners.actions.settings import BudgetExceeded, PlannerSettings, StatsRecord
 from planners.uncertainty import ObjectBelief
-
-Region = tuple[tuple[float, float], tuple[float, float]]
 
 
 @dataclass(frozen=True)
@@ -86,26 +77,63 @@ class PlanStep:
     only), the action (tau_1, nu_o) and the transit to the next action's start (tau_2)."""
 
     result: ActionResult
-    approach: Motion | None
-    transit: Motion | None
+    approach: Trajectory | None
+    transit: Trajectory | None
     ngr: Volume  # the NGR this planning step had to keep out of (for figures)
     depth: int  # planning step: 0 for the goal's PickUp
 
     @property
-    def motion(self) -> Motion:
-        parts = [m for m in (self.approach, self.result.motion, self.transit) if m is not None]
+    def trajectory(self) -> Trajectory:
+        parts = [t for t in (self.approach, self.result.trajectory, self.transit) if t is not None]
         total = parts[0]
-        for m in parts[1:]:
-            total = total + m
+        for t in parts[1:]:
+            total = total + t
         return total
 
-    def summary(self) -> dict[str, object]:
+    def summary(self) -> StepSummary:
+        return StepSummary(
+            self.result.action,
+            self.result.obj,
+            self.depth + 1,
+            {k: round(v, 4) for k, v in self.result.details.items()},
+        )
+
+
+@dataclass(frozen=True)
+class StepSummary:
+    """A plan step as reported: the action's parameters flattened into the JSON object."""
+
+    action: str
+    obj: str
+    planning_step: int
+    details: dict[str, float]
+
+    def as_dict(self) -> dict[str, Any]:
         return {
-            "action": self.result.action,
-            "object": self.result.obj,
-            "planning_step": self.depth + 1,
-            **{k: round(v, 4) for k, v in self.result.details.items()},
+            "action": self.action,
+            "object": self.obj,
+            "planning_step": self.planning_step,
+            **self.details,
         }
+
+
+@dataclass(frozen=True)
+class PlanSummary:
+    """A plan as reported (`as_dict` gives its JSON object)."""
+
+    success: bool
+    reason: str
+    planning_time_s: float
+    actions: int
+    objects_moved: list[str]
+    steps: list[StepSummary]
+    stats: StatsRecord
+    blocked_by: list[str]
+
+    def as_dict(self) -> dict[str, Any]:
+        record = asdict(self)
+        record["steps"] = [s.as_dict() for s in self.steps]
+        return record
 
 
 @dataclass
@@ -116,24 +144,38 @@ class Plan:
     success: bool
     reason: str
     planning_time: float
-    stats: dict[str, object] = field(default_factory=dict)
+    stats: StatsRecord
     blocked_by: list[str] = field(default_factory=list)
 
     @property
     def objects_moved(self) -> list[str]:
         return [s.result.obj for s in self.steps if s.result.action != "pickup"]
 
-    def summary(self) -> dict[str, object]:
-        return {
-            "success": self.success,
-            "reason": self.reason,
-            "planning_time_s": round(self.planning_time, 4),
-            "actions": len(self.steps),
-            "objects_moved": self.objects_moved,
-            "steps": [s.summary() for s in self.steps],
-            "stats": self.stats,
-            "blocked_by": self.blocked_by,
-        }
+    @property
+    def trajectory(self) -> Trajectory:
+        """The whole plan, from the robot's start to the goal lifted (or pulled out)."""
+        if not self.steps:
+            raise ValueError(f"the plan has no steps: {self.reason}")
+        total = self.steps[0].trajectory
+        for step in self.steps[1:]:
+            total = total + step.trajectory
+        return total
+
+    def actions(self, waypoints: int) -> list[np.ndarray]:
+        """The plan as env trajectory actions, each step cut into its own actions."""
+        return [a for step in self.steps for a in step.trajectory.actions(waypoints)]
+
+    def summary(self) -> PlanSummary:
+        return PlanSummary(
+            success=self.success,
+            reason=self.reason,
+            planning_time_s=round(self.planning_time, 4),
+            actions=len(self.steps),
+            objects_moved=self.objects_moved,
+            steps=[s.summary() for s in self.steps],
+            stats=self.stats,
+            blocked_by=self.blocked_by,
+        )
 
 
 def plan_retrieval(
@@ -159,22 +201,23 @@ def plan_retrieval(
         raise ValueError("objects: the scene is empty; there is nothing to retrieve")
     if goal not in names:
         raise ValueError(f"goal: {goal!r} is not in the scene; objects: {', '.join(names)}")
-    kinematics = ArmKinematics("right")
     q0 = np.asarray(start_arm, dtype=float)
     if q0.shape != (7,) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start_arm: {start_arm!r}; expected 7 finite joint angles")
-    if np.any(q0 < kinematics.lower - 1e-6) or np.any(q0 > kinematics.upper + 1e-6):
-        raise ValueError("start_arm: outside the joint limits")
+    rng = np.random.default_rng(settings.seed)  # one stream for IK restarts and TSR draws
     ctx = PlanningContext(
         surface,
         {b.name: b for b in beliefs},
         settings,
-        kinematics,
-        RobotCollision(kinematics, ArmGeometry()),
         goal_region or surface.default_goal_region,
+        rng,
     )
+    arm = Arm(surface, settings, ctx.stats, ctx.budget, rng)
+    lower, upper = arm.kinematics.lower, arm.kinematics.upper
+    if np.any(q0 < lower - 1e-6) or np.any(q0 > upper + 1e-6):
+        raise ValueError("start_arm: outside the joint limits")
     began = time.perf_counter()
-    search = _Search(ctx, np.clip(q0, kinematics.lower, kinematics.upper), kind.actions)
+    search = _Search(ctx, arm, np.clip(q0, lower, upper), kind.actions)
     reason = ""
     try:
         # Objects the planner may not or cannot move are avoided by every motion.
@@ -205,26 +248,21 @@ def plan_retrieval(
         success=steps is not None,
         reason=reason,
         planning_time=elapsed,
-        stats=ctx.stats.as_dict(),
-        blocked_by=[] if steps is not None else _blockers(ctx),
+        stats=ctx.stats.record(),
+        blocked_by=[] if steps is not None else ctx.failures.blockers(),
     )
 
 
-def _blockers(ctx: PlanningContext) -> list[str]:
-    """Why candidates failed, per (object, action), most frequent first."""
-    counted = [
-        (count, f"{action} {name}: {reason} ({count}x)")
-        for (name, action), reasons in ctx.failures.items()
-        for reason, count in reasons.items()
-    ]
-    return [line for _, line in sorted(counted, key=lambda item: -item[0])]
+NextStart = tuple[np.ndarray, HandCommand]
+"""Where the next action starts: its first configuration and hand command."""
 
 
 class _Search:
     def __init__(
-        self, ctx: PlanningContext, start_arm: np.ndarray, actions: tuple[str, ...]
+        self, ctx: PlanningContext, arm: Arm, start_arm: np.ndarray, actions: tuple[str, ...]
     ) -> None:
         self.ctx = ctx
+        self.arm = arm
         self.start_arm = start_arm
         self.actions = actions
 
@@ -235,7 +273,7 @@ class _Search:
         ngr: Volume,
         move: tuple[str, ...],
         avoid: tuple[str, ...],
-        r_next: tuple[np.ndarray, Hand] | None,
+        r_next: NextStart | None,
         depth: int,
     ) -> list[PlanStep] | None:
         """Algorithm 1. ``r_next`` is the next action's start (configuration, hand), or None
@@ -244,37 +282,59 @@ class _Search:
         ctx.stats.planning_steps += 1
         ctx.check_budget()
         avoid_vol = ctx.objects_volume(avoid)
-        spec = ctx.beliefs[o].spec
         for action in self.actions:
-            for result in ACTIONS[action](ctx, o, goal, avoid_vol):
-                transit = self._transit(o, result, avoid, avoid_vol, r_next)
-                if r_next is not None and transit is None:
+            for outcome in ACTIONS[action](ctx, self.arm, o, goal, avoid_vol):
+                if isinstance(outcome, Failure):
+                    ctx.failures.record(outcome)
                     continue
-                tau = result.motion if transit is None else result.motion + transit
-                with ctx.timed("volumes"):
-                    vol = (
-                        tau.volume(ctx.robot)
-                        + Volume.of_object(o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z)
-                        + result.carried
-                    )
-                    others = sorted(set(ctx.beliefs) - {o} - set(avoid))
-                    penetrated = vol.penetrated(ctx.objects_volume(others))
-                move_next = move + tuple(sorted(penetrated - set(move)))
-                if not move_next:
-                    approach = self._approach(tau)
-                    if approach is None:
-                        continue
-                    return [PlanStep(result, approach, transit, ngr, depth)]
-                ngr_next = ngr + vol
-                avoid_next = avoid + (o,)
-                start = (tau.start, tau.segments[0].hand)
-                for i in move_next:
-                    rest = tuple(m for m in move_next if m != i)
-                    plan = self.rearrange(
-                        i, AwayFrom(ngr_next), ngr_next, rest, avoid_next, start, depth + 1
-                    )
-                    if plan is not None:
-                        return [*plan, PlanStep(result, None, transit, ngr, depth)]
+                plan = self._after(outcome, o, ngr, move, avoid, avoid_vol, r_next, depth)
+                if plan is not None:
+                    return plan
+        return None
+
+    def _after(
+        self,
+        result: ActionResult,
+        o: str,
+        ngr: Volume,
+        move: tuple[str, ...],
+        avoid: tuple[str, ...],
+        avoid_vol: Volume,
+        r_next: NextStart | None,
+        depth: int,
+    ) -> list[PlanStep] | None:
+        """The rest of Algorithm 1 for one candidate: its transit, FindPenetrated and the
+        recursive calls that clear what it penetrates; None to try the next candidate."""
+        ctx = self.ctx
+        transit = self._transit(o, result, avoid, avoid_vol, r_next)
+        if r_next is not None and transit is None:
+            return None
+        tau = result.trajectory if transit is None else result.trajectory + transit
+        with ctx.stats.timed("volumes"):
+            spec = ctx.beliefs[o].spec
+            vol = (
+                self.arm.volume(tau)
+                + Volume.of_object(o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z)
+                + result.carried
+            )
+            others = sorted(set(ctx.beliefs) - {o} - set(avoid))
+            penetrated = vol.penetrated(ctx.objects_volume(others))
+        move_next = move + tuple(sorted(penetrated - set(move)))
+        if not move_next:
+            approach = self._approach(tau)
+            if approach is None:
+                return None
+            return [PlanStep(result, approach, transit, ngr, depth)]
+        ngr_next = ngr + vol
+        avoid_next = avoid + (o,)
+        start = (tau.start, tau.segments[0].hand)
+        for i in move_next:
+            rest = tuple(m for m in move_next if m != i)
+            plan = self.rearrange(
+                i, AwayFrom(ngr_next), ngr_next, rest, avoid_next, start, depth + 1
+            )
+            if plan is not None:
+                return [*plan, PlanStep(result, None, transit, ngr, depth)]
         return None
 
     def _transit(
@@ -283,8 +343,8 @@ class _Search:
         result: ActionResult,
         avoid: tuple[str, ...],
         avoid_vol: Volume,
-        r_next: tuple[np.ndarray, Hand] | None,
-    ) -> Motion | None:
+        r_next: NextStart | None,
+    ) -> Trajectory | None:
         """tau_2: GoTo from the action's end to the next action's start, clear of avoidVol and
         the object where it was left; touching no other object if possible."""
         if r_next is None:
@@ -295,37 +355,22 @@ class _Search:
             o, ctx.beliefs[o].spec, result.nu[-1], ctx.surface.top_z
         )
         others = ctx.objects_volume(set(ctx.beliefs) - {o} - set(avoid))
-        path, reason = ctx.goto(result.motion.end, q_next, placed + others, hand)
+        path, reason = self.arm.goto(result.trajectory.end, q_next, placed + others, hand)
         if path is None:
-            path, reason = ctx.goto(result.motion.end, q_next, placed, hand)
+            path, reason = self.arm.goto(result.trajectory.end, q_next, placed, hand)
         if path is None:
-            ctx.fail(o, "goto", f"to the next action's start: {reason}")
+            ctx.failures.record(Failure(o, "goto", f"to the next action's start: {reason}"))
             return None
-        return Motion((Segment("transit", path, hand),))
+        return Trajectory((Segment("transit", path, hand),))
 
-    def _approach(self, tau: Motion) -> Motion | None:
+    def _approach(self, tau: Trajectory) -> Trajectory | None:
         """GoTo from the robot's start to the first action, every object where it is now."""
         ctx = self.ctx
         hand = tau.segments[0].hand
-        path, reason = ctx.goto(self.start_arm, tau.start, ctx.objects_volume(ctx.beliefs), hand)
+        path, reason = self.arm.goto(
+            self.start_arm, tau.start, ctx.objects_volume(ctx.beliefs), hand
+        )
         if path is None:
-            ctx.fail("robot", "goto", f"from the start configuration: {reason}")
+            ctx.failures.record(Failure("robot", "goto", f"from the start configuration: {reason}"))
             return None
-        return Motion((Segment("approach", path, hand),))
-
-
-def plan_rows(plan: Plan) -> np.ndarray:
-    """The whole plan as (N, 9) env trajectory rows."""
-    if not plan.steps:
-        raise ValueError(f"the plan has no steps: {plan.reason}")
-    return np.vstack([s.motion.rows() for s in plan.steps])
-
-
-def chunk_rows(rows: np.ndarray, waypoints: int) -> list[np.ndarray]:
-    """Rows split into env actions of ``waypoints`` rows, the last padded by holding still."""
-    chunks = []
-    for k in range(math.ceil(len(rows) / waypoints)):
-        part = rows[k * waypoints : (k + 1) * waypoints]
-        pad = np.repeat(part[-1:], waypoints - len(part), axis=0)
-        chunks.append(np.vstack([part, pad]).astype(np.float32))
-    return chunks
+        return Trajectory((Segment("approach", path, hand),))

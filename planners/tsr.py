@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from clutter_gym.model.transforms import Frame2D
 from planners.capture import CaptureRegion
-from planners.frames import Frame2D
 
 
 @dataclass(frozen=True)

@@ -9,13 +9,14 @@ sample (sigma1) is the detection.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.objects import ObjectSpec
-from clutter_gym.perception import wrap_angle
-from clutter_gym.scene import NOISE_LEVELS
+from clutter_gym.model.noise import NOISE_LEVELS
+from clutter_gym.model.objects import ObjectSpec
+from clutter_gym.model.transforms import wrap_angle
 
 SAMPLE_COUNTS: dict[str, int] = {
     "sigma1": 1,
@@ -73,3 +74,17 @@ class ObjectBelief:
     @property
     def n(self) -> int:
         return len(self.samples)
+
+
+def beliefs(
+    detections: Sequence[tuple[str, ObjectSpec, tuple[float, float, float]]],
+    sigma: tuple[float, float],
+    n: int,
+    rng: np.random.Generator,
+) -> list[ObjectBelief]:
+    """The belief of every detected object ``(name, spec, detected pose)``: n samples of U(o)
+    each, drawn in the order given (the order fixes the samples of a seed)."""
+    return [
+        ObjectBelief(name, spec, detected, sample_poses(detected, sigma, n, rng))
+        for name, spec, detected in detections
+    ]

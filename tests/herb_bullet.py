@@ -11,7 +11,7 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from clutter_gym.robot import herb_model as hm
+from clutter_gym.model import herb as hm
 
 
 def transform(position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:

@@ -9,13 +9,14 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from clutter_gym.objects import get_object
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.scene import NOISE_LEVELS, load_scene
-from clutter_gym.world import TABLE
-from planners.actions import PlannerSettings
+from clutter_gym.model import herb as hm
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.noise import NOISE_LEVELS
+from clutter_gym.model.objects import get_object
+from clutter_gym.model.scene import load_scene
+from clutter_gym.model.world import TABLE
+from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures, push_grasp_region
-from planners.collision import Volume
 from planners.hand2d import push_grasp_profile
 from planners.rearrange import Plan, plan_retrieval
 from planners.tsr import GraspTSR, grasps_every_sample
@@ -89,7 +90,7 @@ def test_pick_and_place_carries_the_poptart_box_out_of_the_way() -> None:
     assert result.success, result.blocked_by
     first = result.steps[0]
     assert (first.result.action, first.result.obj) == ("pick-and-place", "poptarts")
-    labels = [s.label for s in first.result.motion.segments]
+    labels = [s.label for s in first.result.trajectory.segments]
     assert labels[:5] == ["push", "close", "lift", "carry", "lower"]
     assert "release" in labels
     picked, placed = first.result.nu[0], first.result.nu[-1]

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from agents.benchmark import Job, get_suite, run_benchmark
-from clutter_gym.cli import main
+from agents.cli import main
 
 SMALL = {
     "scenes_per_group": 1,

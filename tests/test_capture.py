@@ -10,16 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clutter_gym.objects import OBJECTS, Footprint
-from planners.capture import (
-    SHIPPED_DIR,
-    CaptureRegion,
-    CaptureSettings,
-    cache_name,
-    push_grasp_apertures,
-    push_grasp_region,
-    sweep_region,
-)
+from clutter_gym.model.objects import OBJECTS, Footprint
+from planners.capture import CaptureRegion, push_grasp_apertures, push_grasp_region, sweep_region
+from planners.capture_build import SHIPPED_DIR, CaptureSettings, cache_name
 from planners.hand2d import (
     MAX_APERTURE,
     aperture_for_proximal,

@@ -13,8 +13,8 @@ from PIL import Image
 from scene_dicts import OUT_OF_REACH, lone_can
 
 from agents import jobs
-from clutter_gym.cli import main
-from clutter_gym.scene import generate_scene, load_scene
+from agents.cli import main
+from clutter_gym.model.scene import generate_scene, load_scene
 
 
 def test_scene_command_writes_the_generated_scene(tmp_path: Path) -> None:

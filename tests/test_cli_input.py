@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from scene_dicts import lone_can
 
-from clutter_gym.cli import main
+from agents.cli import main
 
 
 def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:

@@ -12,20 +12,20 @@ import pybullet
 import pytest
 from herb_bullet import HerbBullet, load_herb, transform
 
-from clutter_gym.objects import OBJECTS, ObjectSpec, Pose
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.geometry import ArmGeometry, Hand
-from clutter_gym.robot.herb import hand_targets
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import TABLE
-from planners.collision import (
+from clutter_gym.model import herb as hm
+from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.collision import (
     SELF_COLLISION_GROUPS,
     SURFACE_PADDING,
     CollisionChecker,
     interpolate,
     make_checker,
 )
-from planners.direct_grasp import approach_rotation
+from clutter_gym.model.herb import HandCommand, hand_targets
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose
+from clutter_gym.model.world import TABLE
+from planners.actions.grasp_geometry import approach_rotation
 
 CAN_XY = (0.90, -0.30)
 #: Table + 3 objects: the can where the test grasps reach, the others nearby.
@@ -34,7 +34,7 @@ SCENE: dict[str, tuple[ObjectSpec, Pose]] = {
     "bottle": (OBJECTS["juice_bottle"], (0.82, -0.05, 0.0)),
     "box": (OBJECTS["poptart_box"], (0.95, -0.52, 0.3)),
 }
-CLOSED: Hand = (0.0, 1.0)
+CLOSED = HandCommand(0.0, 1.0)
 #: Over the table, out of reach of the objects even with the fingers flat open.
 CLEAR_XY = (0.85, 0.30)
 
@@ -45,9 +45,9 @@ class Bullet(HerbBullet):
 
     bodies: list[int]
 
-    def set(self, q: np.ndarray, hand: Hand) -> None:
+    def set(self, q: np.ndarray, hand: HandCommand) -> None:
         names = hm.arm_joint_names("right") + hm.hand_joint_names("right")
-        self.set_joints(names, [*q, *hand_targets(*hand)])
+        self.set_joints(names, [*q, *hand_targets(hand)])
 
 
 @pytest.fixture(scope="module")
@@ -64,14 +64,14 @@ def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
     for spec, (x, y, theta) in SCENE.values():
         for p in spec.primitives:
             shape = (
-                c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[s / 2 for s in p.size])
-                if p.shape == "box"
+                c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[s / 2 for s in p.dims])
+                if p.kind == "box"
                 else c.createCollisionShape(
-                    pybullet.GEOM_CYLINDER, radius=p.size[0], height=p.size[1]
+                    pybullet.GEOM_CYLINDER, radius=p.dims[0], height=p.dims[1]
                 )
             )
             orientation = c.getQuaternionFromEuler((0.0, 0.0, theta))
-            bodies.append(c.createMultiBody(0, shape, -1, (x, y, TABLE.top_z + p.z), orientation))
+            bodies.append(c.createMultiBody(0, shape, -1, (x, y, TABLE.top_z + p.xyz[2]), orientation))
     yield Bullet(herb.client, herb.robot, herb.joints, herb.links, bodies)
     c.disconnect()
 
@@ -102,7 +102,7 @@ def test_primitive_poses_match_pybullet(bullet: Bullet) -> None:
     rng = np.random.default_rng(0)
     for _ in range(20):
         q = rng.uniform(kin.lower, kin.upper)
-        hand = (float(rng.uniform()), float(rng.uniform()))
+        hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
         bullet.set(q, hand)
         poses = geometry.primitive_poses(kin.link_frames(q), hand)
         links = geometry.link_poses(kin.link_frames(q), hand)
@@ -121,7 +121,7 @@ def test_primitive_poses_match_pybullet(bullet: Bullet) -> None:
 
 
 def test_home_is_free(checker: CollisionChecker) -> None:
-    for hand in ((0.0, 0.0), CLOSED):
+    for hand in (HandCommand(), CLOSED):
         assert not checker.in_collision(hm.RIGHT_ARM_HOME, hand)
         assert not checker.robot.self_collision(hm.RIGHT_ARM_HOME, hand)
         assert not checker.surface_collision(hm.RIGHT_ARM_HOME, hand)
@@ -179,12 +179,12 @@ def test_checker_as_ik_accept_gives_free_solutions(checker: CollisionChecker) ->
         assert not checker.robot.self_collision(q, CLOSED)
 
 
-def random_scene_configurations(kin: ArmKinematics, n: int) -> list[tuple[np.ndarray, Hand]]:
+def random_scene_configurations(kin: ArmKinematics, n: int) -> list[tuple[np.ndarray, HandCommand]]:
     """Half uniform in the limits, half reaching into the objects (where contacts happen)."""
     rng = np.random.default_rng(3)
-    out: list[tuple[np.ndarray, Hand]] = []
+    out: list[tuple[np.ndarray, HandCommand]] = []
     while len(out) < n:
-        hand = (float(rng.uniform()), float(rng.uniform()))
+        hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
         if len(out) % 2:
             out.append((rng.uniform(kin.lower, kin.upper), hand))
             continue
@@ -238,7 +238,8 @@ def test_self_collision_agrees_with_pybullet(checker: CollisionChecker, bullet: 
     rng = np.random.default_rng(5)
     hits = 0
     for _ in range(200):
-        q, hand = rng.uniform(kin.lower, kin.upper), (float(rng.uniform()), float(rng.uniform()))
+        q = rng.uniform(kin.lower, kin.upper)
+        hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
         bullet.set(q, hand)
         distance = min(
             (

@@ -16,10 +16,10 @@ from gymnasium.utils.env_checker import check_env
 import clutter_gym
 from agents.scripted import DirectGraspPolicy
 from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.scene import scene_to_dict
-from clutter_gym.world import TABLE
-from planners.direct_grasp import approach_rotation
+from clutter_gym.model import herb as hm
+from clutter_gym.model.scene import scene_to_dict
+from clutter_gym.model.world import TABLE
+from planners.actions.grasp_geometry import approach_rotation
 
 CAN_SCENE = {
     "format": "clutter-gym-scene/1",

@@ -18,8 +18,8 @@ from scene_dicts import lone_can
 import clutter_gym  # noqa: F401  (registers the env)
 import clutter_gym.env as env_module
 from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
-from clutter_gym.errors import shown
-from clutter_gym.sim import Camera
+from clutter_gym.model.fields import shown
+from clutter_gym.sim.simulator import Camera
 
 SCENE = lone_can("sigma1")
 

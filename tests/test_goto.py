@@ -7,13 +7,13 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from clutter_gym.objects import get_object
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.herb_model import RIGHT_ARM_HOME
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import TABLE
-from planners.collision import CollisionChecker, interpolate, make_checker
-from planners.direct_grasp import approach_rotation
+from clutter_gym.model import herb as hm
+from clutter_gym.model.collision import CollisionChecker, interpolate, make_checker
+from clutter_gym.model.herb import RIGHT_ARM_HOME
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.objects import get_object
+from clutter_gym.model.world import TABLE
+from planners.actions.grasp_geometry import approach_rotation
 from planners.goto import GoToResult, plan_goto, upright_hand
 
 KIN = ArmKinematics("right")

@@ -11,8 +11,8 @@ import pybullet
 import pytest
 from herb_bullet import HerbBullet, load_herb
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.model import herb as hm
+from clutter_gym.model.kinematics import ArmKinematics
 
 TABLE_TOP = 0.735
 

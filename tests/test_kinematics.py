@@ -10,8 +10,8 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.kinematics import ArmKinematics, rotation_exp, rotation_log
+from clutter_gym.model import herb as hm
+from clutter_gym.model.kinematics import ArmKinematics, rotation_exp, rotation_log
 
 FRAME_LINKS = ["wam_base", *(f"wam{i}" for i in range(1, 8)), "hand_base"]
 

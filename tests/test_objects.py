@@ -4,20 +4,19 @@ from __future__ import annotations
 
 import math
 
-import fcl
 import numpy as np
 import pytest
 
-from clutter_gym.objects import (
-    CYLINDER_SECTIONS,
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.objects import (
     MAX_GRASP_WIDTH,
     OBJECTS,
     Footprint,
     ObjectSpec,
-    Primitive,
     footprint_gap,
     get_object,
 )
+from clutter_gym.model.shapes import CYLINDER_SECTIONS, Shape
 
 # A regular n-gon prism has n/(2π)·sin(2π/n) of its circumscribed cylinder's volume.
 _POLYGON_FACTOR = CYLINDER_SECTIONS / (2 * math.pi) * math.sin(2 * math.pi / CYLINDER_SECTIONS)
@@ -25,19 +24,17 @@ _POLYGON_FACTOR = CYLINDER_SECTIONS / (2 * math.pi) * math.sin(2 * math.pi / CYL
 
 def _analytic_mesh_volume(spec: ObjectSpec) -> float:
     return sum(
-        p.volume * (_POLYGON_FACTOR if p.shape == "cylinder" else 1.0) for p in spec.primitives
+        p.volume * (_POLYGON_FACTOR if p.kind == "cylinder" else 1.0) for p in spec.primitives
     )
 
 
-def _probe(point: tuple[float, float, float]) -> fcl.CollisionObject:
-    return fcl.CollisionObject(fcl.Sphere(0.001), fcl.Transform(np.eye(3), np.array(point)))
+def _placed(spec: ObjectSpec, pose: tuple[float, float, float], z: float) -> Volume:
+    return Volume.of_object("object", spec, np.array([pose]), z)
 
 
 def _hits(spec: ObjectSpec, pose: tuple[float, float, float], z: float, point: tuple) -> bool:
-    probe = _probe(point)
-    return any(
-        fcl.collide(o, probe, fcl.CollisionRequest(), fcl.CollisionResult())
-        for o in spec.fcl_objects(pose, z)
+    return _placed(spec, pose, z).intersects(
+        Volume.of_box("probe", np.array(point), (1e-3,) * 3, 0)
     )
 
 
@@ -77,7 +74,7 @@ def test_footprint_aabb_is_exact_for_rotated_mesh(kind: str, theta: float) -> No
 def test_fcl_geometry_is_placed_at_the_pose_on_the_surface() -> None:
     can, z = get_object("soda_can"), 0.735
     pose = (0.7, -0.2, 0.3)
-    (obj,) = can.fcl_objects(pose, z)
+    ((obj, _, _),) = _placed(can, pose, z).parts
     assert obj.getTranslation() == pytest.approx([0.7, -0.2, z + 0.061])
     assert _hits(can, pose, z, (0.7 + 0.030, -0.2, z + 0.01))
     assert not _hits(can, pose, z, (0.7 + 0.036, -0.2, z + 0.01))
@@ -99,7 +96,7 @@ def test_fcl_geometry_follows_the_yaw() -> None:
 def test_dumbbell_is_two_discs_on_a_handle() -> None:
     dumbbell, z = get_object("dumbbell"), 0.0
     pose = (0.0, 0.0, 0.0)
-    assert len(dumbbell.fcl_objects(pose, z)) == 3
+    assert len(_placed(dumbbell, pose, z)) == 3
     assert _hits(dumbbell, pose, z, (0.05, 0.0, 0.02))  # bottom disc
     assert not _hits(dumbbell, pose, z, (0.05, 0.0, 0.125))  # beside the handle
     assert _hits(dumbbell, pose, z, (0.015, 0.0, 0.125))  # the handle
@@ -146,7 +143,7 @@ def test_too_wide_object_cannot_be_declared_graspable() -> None:
     with pytest.raises(ValueError, match=r"MAX_GRASP_WIDTH"):
         ObjectSpec(
             kind="crate",
-            primitives=(Primitive("box", (0.3, 0.3, 0.2), 0.1),),
+            primitives=(Shape("box", (0.3, 0.3, 0.2), (0.0, 0.0, 0.1)),),
             mass=1.0,
             lateral_friction=0.5,
             spinning_friction=0.0,
@@ -161,8 +158,8 @@ def test_too_wide_object_cannot_be_declared_graspable() -> None:
     ("shape", "size"), [("box", (0.1, 0.1)), ("cylinder", (0.1, -0.2)), ("cone", (0.1, 0.2))]
 )
 def test_bad_primitive_is_rejected(shape: str, size: tuple[float, ...]) -> None:
-    with pytest.raises(ValueError, match=r"Primitive"):
-        Primitive(shape, size, 0.1)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"Shape"):
+        Shape(shape, size, (0.0, 0.0, 0.1))  # type: ignore[arg-type]
 
 
 def test_unknown_kind_lists_the_allowed_kinds() -> None:

@@ -13,8 +13,8 @@ from scene_dicts import OUT_OF_REACH, lone_can
 
 import clutter_gym  # noqa: F401  (registers the env)
 from agents.rearrange_policy import RearrangePolicy
-from clutter_gym.scene import load_scene, scene_from_dict
-from planners.actions import PlannerSettings
+from clutter_gym.model.scene import load_scene, scene_from_dict
+from planners.actions.settings import PlannerSettings
 
 LONE_CAN = lone_can("sigma3")
 

@@ -9,20 +9,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clutter_gym.objects import Footprint
+from clutter_gym.model.objects import Footprint
 from planners.hand2d import push_grasp_profile
+from planners.push_simulation import ConvexPolygon, Pusher, PushState, simulate_push
 from planners.pushing import (
     STICK,
     DiscPressure,
-    Pusher,
-    PushState,
     RectanglePressure,
     RimPressure,
     SampledPressure,
     contact_lcp,
     limit_surface_matrix,
     lynch_sticking_twist,
-    simulate_push,
     single_contact_twist,
     solve_contacts,
 )
@@ -166,7 +164,6 @@ def test_appendix_a_theorem(y: float) -> None:
 
 def test_box_on_flat_pusher_translates() -> None:
     """A box pushed square-on by a wide flat face moves with it (two stuck corner contacts)."""
-    from planners.pushing import ConvexPolygon
 
     wall = Pusher((ConvexPolygon(((-0.1, -0.2), (0.0, -0.2), (0.0, 0.2), (-0.1, 0.2))),))
     box = Footprint("box", half_extents=(0.05, 0.03))

@@ -10,15 +10,16 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from clutter_gym.objects import get_object
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.geometry import ArmGeometry
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.scene import load_scene
-from clutter_gym.world import TABLE
-from planners.actions import PlannerSettings
-from planners.collision import RobotCollision, Volume
-from planners.rearrange import Plan, chunk_rows, plan_retrieval, plan_rows
+from clutter_gym.model import herb as hm
+from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.collision import RobotCollision, Volume
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.objects import get_object
+from clutter_gym.model.scene import load_scene
+from clutter_gym.model.trajectory import chunk_rows
+from clutter_gym.model.world import TABLE
+from planners.actions.settings import PlannerSettings
+from planners.rearrange import Plan, plan_retrieval
 from planners.uncertainty import ObjectBelief, sample_poses
 
 SIGMA2 = (0.005, 0.034)
@@ -66,8 +67,8 @@ def test_a_free_can_is_one_pickup(lone_can: Plan) -> None:
     assert lone_can.objects_moved == []
     step = lone_can.steps[0]
     assert step.approach is not None and step.transit is None
-    assert np.allclose(step.motion.start, hm.RIGHT_ARM_HOME)
-    assert lone_can.stats["planning_steps"] == 1
+    assert np.allclose(step.trajectory.start, hm.RIGHT_ARM_HOME)
+    assert lone_can.stats.planning_steps == 1
 
 
 def test_pickup_captures_every_sample_in_the_hand(lone_can: Plan) -> None:
@@ -76,7 +77,7 @@ def test_pickup_captures_every_sample_in_the_hand(lone_can: Plan) -> None:
     # nu_o ends with every sample (under every parameter set) between the fingertips.
     final = result.nu[-1]
     assert len(final) == 30
-    motion = result.motion
+    motion = result.trajectory
     labels = [s.label for s in motion.segments]
     assert labels == ["push", "close", "lift"]
     push = motion.segments[0]
@@ -93,7 +94,7 @@ def test_pickup_captures_every_sample_in_the_hand(lone_can: Plan) -> None:
 
 def test_the_lift_rises_straight_up(lone_can: Plan) -> None:
     k = ArmKinematics("right")
-    lift = lone_can.steps[0].result.motion.segments[-1].path
+    lift = lone_can.steps[0].result.trajectory.segments[-1].path
     tcp = k.fk_tcp_batch(lift)[:, :3, 3]
     assert tcp[-1, 2] - tcp[0, 2] == pytest.approx(0.15, abs=1e-3)
     assert np.ptp(tcp[:, 0]) < 2e-3 and np.ptp(tcp[:, 1]) < 2e-3
@@ -108,7 +109,7 @@ def test_fig3_sweeps_the_box_before_the_pickup(fig3: tuple[Plan, list[ObjectBeli
     ]
     # Planned backwards: the pickup is planning step 1, the sweep step 2.
     assert [s.depth for s in result.steps] == [1, 0]
-    assert result.stats["planning_steps"] >= 2
+    assert result.stats.planning_steps >= 2
 
 
 def test_fig3_plan_respects_avoid_and_ngr(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
@@ -119,7 +120,7 @@ def test_fig3_plan_respects_avoid_and_ngr(fig3: tuple[Plan, list[ObjectBelief]])
     sweep, pickup = result.steps
     robot = RobotCollision(ArmKinematics("right"), ArmGeometry())
     z = TABLE.top_z
-    sweep_volume = sweep.motion.volume(robot) + Volume.of_object(
+    sweep_volume = Volume.of_trajectory(robot, sweep.trajectory) + Volume.of_object(
         "big_box", by_name["big_box"].spec, sweep.result.nu.reshape(-1, 3), z
     )
     for other in ("red_can", "dumbbell"):
@@ -129,21 +130,23 @@ def test_fig3_plan_respects_avoid_and_ngr(fig3: tuple[Plan, list[ObjectBelief]])
     assert len(sweep.ngr) > 0 and not box_final.intersects(sweep.ngr)
     # ...and the NGR is exactly what the pickup needs: its arm and the can's evolution.
     can = by_name["red_can"]
-    pickup_volume = pickup.result.motion.volume(robot) + Volume.of_object(
+    pickup_volume = Volume.of_trajectory(robot, pickup.result.trajectory) + Volume.of_object(
         "red_can", can.spec, pickup.result.nu.reshape(-1, 3), z
     )
     assert len(pickup_volume) == len(sweep.ngr)
     assert sweep.transit is not None
-    assert np.allclose(sweep.transit.end, pickup.result.motion.start)
+    assert np.allclose(sweep.transit.end, pickup.result.trajectory.start)
 
 
-def test_plan_rows_are_env_actions(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
+def test_plan_trajectory_is_env_actions(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
     result, _ = fig3
-    rows = plan_rows(result)
+    rows = result.trajectory.rows()
     assert rows.shape[1] == 9
     chunks = chunk_rows(rows, 16)
     assert all(c.shape == (16, 9) and c.dtype == np.float32 for c in chunks)
     assert np.allclose(np.vstack(chunks)[: len(rows)], rows, atol=1e-6)
+    per_step = result.actions(16)
+    assert len(per_step) == sum(len(s.trajectory.actions(16)) for s in result.steps)
 
 
 def test_unpushable_objects_are_never_moved() -> None:
@@ -192,22 +195,24 @@ def test_negative_budget_is_rejected() -> None:
 def test_same_seed_same_plan() -> None:
     beliefs = [belief("can", "soda_can", (0.93, -0.22, 0.0))]
     a, b = plan(beliefs), plan(beliefs)
-    assert np.array_equal(plan_rows(a), plan_rows(b))
+    assert np.array_equal(a.trajectory.rows(), b.trajectory.rows())
 
 
 def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None:
     """When the straight pull into the goal strip is blocked, PickUp carries the object with
     the constrained GoTo: level hand, object poses following the TCP."""
-    from clutter_gym.world import SHELF
-    from planners.actions import PlanningContext, _carried_poses, _carry
-    from planners.direct_grasp import approach_rotation
+    from clutter_gym.model.world import SHELF
+    from planners.actions.arm import Arm
+    from planners.actions.context import PlanningContext
+    from planners.actions.grasp_geometry import approach_rotation
+    from planners.actions.hand_in import carried_poses, carry_upright
 
-    k = ArmKinematics("right")
     can = belief("can", "soda_can", (1.0, -0.15, 0.0))
-    ctx = PlanningContext(
-        SHELF, {"can": can}, PlannerSettings(goto_evaluations=100_000), k,
-        RobotCollision(k, ArmGeometry()), SHELF.default_goal_region,
-    )  # fmt: skip
+    settings = PlannerSettings(goto_evaluations=100_000)
+    rng = np.random.default_rng(0)
+    ctx = PlanningContext(SHELF, {"can": can}, settings, SHELF.default_goal_region, rng)
+    arm = Arm(SHELF, settings, ctx.stats, ctx.budget, rng)
+    k = arm.kinematics
 
     def pose(x: float, y: float) -> np.ndarray:
         t = np.eye(4)
@@ -222,12 +227,12 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
         x, y, _ = k.fk_tcp(q)[:3, 3]
         return not (0.86 < x < 0.92 and -0.19 < y < -0.11)
 
-    straight = ctx.straight(q_start, pose(0.78, -0.15), free)
+    straight = arm.straight(q_start, pose(0.78, -0.15), free)
     assert straight is None
-    path = _carry(ctx, q_start, pose(0.78, -0.15), free)
+    path = carry_upright(arm, q_start, pose(0.78, -0.15), free)
     assert path is not None and all(free(q) for q in path)
     assert max(float(np.abs(k.fk_tcp(q)[:2, 0]).max()) for q in path) < 1e-3
-    carried = _carried_poses(ctx, path, can.samples)
+    carried = carried_poses(arm, path, can.samples)
     tcp_end = k.fk_tcp(path[-1])[:3, 3]
     offset = can.samples[0, :2] - k.fk_tcp(path[0])[:2, 3]
     assert np.allclose(carried[-1, 0, :2], tcp_end[:2] + offset, atol=0.02)

@@ -15,14 +15,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clutter_gym import scene as scene_module
-from clutter_gym.objects import footprint_gap
-from clutter_gym.scene import (
+from clutter_gym.model import scene as scene_module
+from clutter_gym.model.noise import NOISE_LEVELS
+from clutter_gym.model.objects import footprint_gap
+from clutter_gym.model.scene import (
     HIGH_GAP,
     LEVELS,
     MAX_OBJECTS,
     MEDIUM_MIN_GAP,
-    NOISE_LEVELS,
     PAPER_SUITE_DIR,
     GoalSpec,
     ObjectPlacement,
@@ -35,7 +35,7 @@ from clutter_gym.scene import (
     scene_to_dict,
     write_paper_suite,
 )
-from clutter_gym.world import SHELF, SURFACES, TABLE, get_surface
+from clutter_gym.model.world import SHELF, SURFACES, TABLE, get_surface
 
 SURFACE_NAMES = sorted(SURFACES)
 

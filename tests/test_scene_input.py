@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clutter_gym.scene import (
+from clutter_gym.model.scene import (
     LEVELS,
     ObjectPlacement,
     Scene,
@@ -22,7 +22,7 @@ from clutter_gym.scene import (
     resolve_noise,
     scene_from_dict,
 )
-from clutter_gym.world import SURFACES
+from clutter_gym.model.world import SURFACES
 
 FIELD_PATH = re.compile(r"^(scene|format|surface|objects|goal|noise)[\w\[\]\.]*: ")
 SHORT = 400

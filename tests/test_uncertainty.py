@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clutter_gym.objects import get_object
-from clutter_gym.world import TABLE
-from planners.collision import Volume
-from planners.frames import Frame2D
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.objects import get_object
+from clutter_gym.model.transforms import Frame2D
+from clutter_gym.model.world import TABLE
 from planners.uncertainty import SAMPLE_COUNTS, sample_count, sample_poses
 
 Z = TABLE.top_z

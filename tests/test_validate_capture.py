@@ -9,7 +9,7 @@ import pytest
 
 from agents import validate_capture as vc
 from clutter_gym.env import ClutterRetrieveEnv
-from clutter_gym.objects import get_object
+from clutter_gym.model.objects import get_object
 from planners.hand2d import default_aperture
 
 

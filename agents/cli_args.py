@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from clutter_gym.errors import shown
+from clutter_gym.model.fields import shown
 
 
 def integer(minimum: int) -> Callable[[str], int]:

@@ -14,11 +14,11 @@ A scene is stored as JSON (format ``clutter-gym-scene/1``)::
       "noise": "sigma2"
     }
 
-* ``surface``: ``"table"`` or ``"shelf"`` (see ``clutter_gym.world``).
+* ``surface``: ``"table"`` or ``"shelf"`` (see ``clutter_gym.model.world``).
 * ``objects``: 1 to ``MAX_OBJECTS`` objects with unique names (printable, 1 to
   ``MAX_NAME_LENGTH`` characters); ``kind`` is a key of
-  ``clutter_gym.objects.OBJECTS``; ``pose`` is ``[x, y, theta]`` of the object's base centre on
-  the surface top, in the robot's base frame (metres, radians).
+  ``clutter_gym.model.objects.OBJECTS``; ``pose`` is ``[x, y, theta]`` of the object's base
+  centre on the surface top, in the robot's base frame (metres, radians).
 * ``goal.object``: the name of the (graspable) object to retrieve.  ``goal.region`` (optional,
   default: the surface's ``default_goal_region``) is where the object must end up: a rectangle
   of non-zero area that overlaps the surface top (``Surface.bounds``).  ``goal.success``
@@ -39,7 +39,7 @@ resolve them by launching objects.
 
 ``generate_scene`` draws random scenes at the paper's three clutter levels (§3.1.2); the ten
 fixed scenes per level of ``paper_suite`` are committed under ``scenes/paper`` and regenerated
-by ``python -m clutter_gym.scene``.  The paper evaluates each scene at every noise level, e.g.
+by ``python -m clutter_gym.model.scene``.  The paper evaluates each scene at every noise level, e.g.
 ``dataclasses.replace(scene, noise="sigma3")``.
 """
 
@@ -48,19 +48,19 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-import fcl
 import numpy as np
 
-from clutter_gym.errors import invalid, shown
-from clutter_gym.files import atomic_write_text
-from clutter_gym.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
-from clutter_gym.world import SURFACES, Region, Surface
+from clutter_gym.model.collision import penetration_depth
+from clutter_gym.model.fields import allowed, invalid, mapping, numbers, shown, string
+from clutter_gym.model.files import atomic_write_text
+from clutter_gym.model.noise import DEFAULT_NOISE, NOISE_FORMS, resolve_noise
+from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
+from clutter_gym.model.world import SURFACES, Region, Surface
 
 SCENE_FORMAT = "clutter-gym-scene/1"
 MAX_OBJECTS = 8
@@ -69,24 +69,6 @@ Level = Literal["none", "medium", "high"]
 LEVELS: tuple[Level, ...] = ("none", "medium", "high")
 Success = Literal["lift", "region"]
 SUCCESS_MODES: tuple[Success, ...] = ("lift", "region")
-
-NOISE_LEVELS: dict[str, tuple[float, float]] = {
-    "sigma1": (0.0, 0.0),
-    "sigma2": (0.005, 0.034),
-    "sigma3": (0.02, 0.175),
-    "sigma4": (0.06, 0.785),
-    "detector": (0.007, 0.07),
-    "fig2": (0.02, 0.05),
-}
-"""Perception noise ``(sigma_xy [m], sigma_theta [rad])``: the paper's σ1–σ4, its real
-detector (§3.1) and the high-uncertainty example of its Fig. 2."""
-DEFAULT_NOISE = "sigma2"
-MAX_SIGMA: dict[str, float] = {"xy": 1.0, "theta": math.pi}
-"""Upper bounds of the noise standard deviations (m, rad)."""
-_SIGMA_RANGES = {"xy": "[0, 1] m", "theta": "[0, pi] rad"}
-_NOISE_EXPECTED = (
-    ", ".join(repr(n) for n in NOISE_LEVELS) + ' or {"xy": sigma_xy, "theta": sigma_theta}'
-)
 
 PENETRATION_TOLERANCE = 1e-4
 """Interpenetration (m) tolerated, since fcl reports touching shapes as colliding."""
@@ -99,7 +81,7 @@ two footprints are closer than its lower end."""
 POSE_DECIMALS = 4
 """Generated poses are rounded (0.1 mm, 0.1 mrad) so the committed JSON stays readable."""
 
-SCENES_DIR = Path(__file__).parent / "scenes"
+SCENES_DIR = Path(__file__).parents[1] / "scenes"
 """The scenes shipped with the package: the demo, the paper's figures and suites."""
 PAPER_SUITE_DIR = SCENES_DIR / "paper"
 PAPER_SUITE_SIZE = 10
@@ -120,13 +102,9 @@ _PLACEMENT_ATTEMPTS = 100
 _BISECTION_STEPS = 30
 
 
-def _allowed(names: Sequence[str] | Mapping[str, Any]) -> str:
-    return "one of " + ", ".join(repr(n) for n in sorted(names))
-
-
 def _surface(name: object, path: str) -> Surface:
     if not isinstance(name, str) or name not in SURFACES:
-        raise invalid(path, name, _allowed(SURFACES))
+        raise invalid(path, name, allowed(SURFACES))
     return SURFACES[name]
 
 
@@ -202,8 +180,8 @@ def _validate_objects(objects: tuple[ObjectPlacement, ...]) -> None:
             )
         first_index[name] = i
         if not isinstance(obj.kind, str) or obj.kind not in OBJECTS:
-            raise invalid(f"objects[{i}].kind", obj.kind, _allowed(OBJECTS))
-        _numbers(obj.pose, f"objects[{i}].pose", 3, "[x, y, theta] of finite numbers")
+            raise invalid(f"objects[{i}].kind", obj.kind, allowed(OBJECTS))
+        numbers(obj.pose, f"objects[{i}].pose", 3, "[x, y, theta] of finite numbers")
 
 
 def _validate_goal(scene: Scene, surface: Surface) -> None:
@@ -212,7 +190,7 @@ def _validate_goal(scene: Scene, surface: Surface) -> None:
         raise invalid("goal", goal, "a GoalSpec")
     names = [o.name for o in scene.objects]
     if _name(goal.object, "goal.object") not in names:
-        raise invalid("goal.object", goal.object, "the name of a scene object: " + _allowed(names))
+        raise invalid("goal.object", goal.object, "the name of a scene object: " + allowed(names))
     spec = scene.goal_placement.spec
     if not spec.graspable:
         graspable = [k for k, s in OBJECTS.items() if s.graspable]
@@ -222,7 +200,7 @@ def _validate_goal(scene: Scene, surface: Surface) -> None:
             f"a graspable object, not a {spec.kind} (graspable kinds: {', '.join(graspable)})",
         )
     if not isinstance(goal.success, str) or goal.success not in SUCCESS_MODES:
-        raise invalid("goal.success", goal.success, _allowed(SUCCESS_MODES))
+        raise invalid("goal.success", goal.success, allowed(SUCCESS_MODES))
     if goal.success == "lift" and not spec.liftable:
         raise invalid(
             "goal.object",
@@ -241,7 +219,7 @@ def _validate_region(region: object, surface: Surface) -> None:
     tops = {"x": (x_min, x_max), "y": (y_min, y_max)}
     for axis, bounds in zip("xy", region, strict=True):
         path = f"goal.region.{axis}"
-        low, high = _numbers(bounds, path, 2, "[min, max] of finite numbers")
+        low, high = numbers(bounds, path, 2, "[min, max] of finite numbers")
         if low >= high:
             raise invalid(path, bounds, "[min, max] with min < max (a region with area)")
         top_low, top_high = tops[axis]
@@ -267,34 +245,6 @@ def _validate_unsolved(scene: Scene) -> None:
         )
 
 
-def resolve_noise(
-    noise: str | Sequence[float] | Mapping[str, float], path: str = "noise"
-) -> tuple[float, float]:
-    """``(sigma_xy, sigma_theta)`` of a level name, a pair or a ``{"xy", "theta"}`` mapping.
-
-    Every other input is a ``ValueError`` naming ``path``, since the env passes user input
-    straight through.  Sigmas are bounded (``MAX_SIGMA``) so observations stay finite in float32.
-    """
-    if isinstance(noise, str):
-        if noise not in NOISE_LEVELS:
-            raise invalid(path, noise, _allowed(NOISE_LEVELS) + ' or {"xy": .., "theta": ..}')
-        return NOISE_LEVELS[noise]
-    if isinstance(noise, Mapping):
-        entry = _mapping(noise, path, tuple(MAX_SIGMA))
-        values = tuple(entry[key] for key in MAX_SIGMA)
-    elif isinstance(noise, list | tuple) and len(noise) == 2:
-        values = tuple(noise)
-    else:
-        raise invalid(path, noise, f"a pair (sigma_xy, sigma_theta), {_NOISE_EXPECTED}")
-    sigmas = []
-    for (key, limit), value in zip(MAX_SIGMA.items(), values, strict=True):
-        sigma = _number(value, f"{path}.{key}")
-        if not 0 <= sigma <= limit:
-            raise invalid(f"{path}.{key}", value, f"a standard deviation in {_SIGMA_RANGES[key]}")
-        sigmas.append(sigma)
-    return sigmas[0], sigmas[1]
-
-
 def _validate_support(objects: tuple[ObjectPlacement, ...], surface: Surface) -> None:
     x_min, x_max, y_min, y_max = surface.bounds
     where = "inside the shelf walls" if surface.name == "shelf" else "on the table top"
@@ -309,26 +259,13 @@ def _validate_support(objects: tuple[ObjectPlacement, ...], surface: Surface) ->
             )
 
 
-def _penetration(a: list[fcl.CollisionObject], b: list[fcl.CollisionObject]) -> float:
-    """Deepest penetration between two objects' primitives; 0 when they are apart."""
-    depth = 0.0
-    for pa in a:
-        for pb in b:
-            request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=1)
-            result = fcl.CollisionResult()
-            if fcl.collide(pa, pb, request, result):
-                depth = max(depth, *(c.penetration_depth for c in result.contacts))
-    return depth
-
-
 def _validate_interpenetration(objects: tuple[ObjectPlacement, ...], surface: Surface) -> None:
-    geometry = [o.spec.fcl_objects(o.pose, surface.top_z) for o in objects]
     for j, b in enumerate(objects):
         for i, a in enumerate(objects[:j]):
             reach = a.spec.footprint.bounding_radius + b.spec.footprint.bounding_radius
             if math.dist(a.pose[:2], b.pose[:2]) > reach:
                 continue
-            depth = _penetration(geometry[i], geometry[j])
+            depth = penetration_depth(a.spec, a.pose, b.spec, b.pose, surface.top_z)
             if depth > PENETRATION_TOLERANCE:
                 raise ValueError(
                     f"objects[{j}].pose: {b.name!r} ({b.kind}) interpenetrates {a.name!r} "
@@ -340,38 +277,6 @@ def _validate_interpenetration(objects: tuple[ObjectPlacement, ...], surface: Su
 # --- JSON ---------------------------------------------------------------------------------
 
 
-_KEY = re.compile(r"[A-Za-z0-9_]{1,64}")
-"""An unknown key of this form is named as a field path; any other is shown abbreviated after
-the path of its object, so that messages still start with a well-formed path."""
-
-
-def _mapping(
-    value: object, path: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
-) -> Mapping[str, Any]:
-    prefix = f"{path}." if path else ""
-    if not isinstance(value, Mapping):
-        raise invalid(path or "scene", value, "a JSON object")
-    for key in required:
-        if key not in value:
-            raise ValueError(f"{prefix}{key}: missing required key")
-    allowed = required + optional
-    extra = [k for k in value if k not in allowed]
-    if extra:
-        where = (
-            f"{prefix}{extra[0]}: unknown key"
-            if isinstance(extra[0], str) and _KEY.fullmatch(extra[0])
-            else f"{path or 'scene'}: unknown key {shown(extra[0])}"
-        )
-        raise ValueError(f"{where}; allowed keys: {', '.join(allowed)}")
-    return value
-
-
-def _string(value: object, path: str) -> str:
-    if not isinstance(value, str):
-        raise invalid(path, value, "a string")
-    return value
-
-
 def _name(value: object, path: str) -> str:
     """Names end up in messages, logs and observations: no control characters."""
     if not (isinstance(value, str) and 1 <= len(value) <= MAX_NAME_LENGTH and value.isprintable()):
@@ -379,32 +284,14 @@ def _name(value: object, path: str) -> str:
     return value
 
 
-def _number(value: object, path: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise invalid(path, value, "a number")
-    try:
-        number = float(value)
-    except OverflowError:  # an int beyond the float range
-        raise invalid(path, value, "a finite number (within ±1.8e308)") from None
-    if not math.isfinite(number):
-        raise invalid(path, value, "a finite number")
-    return number
-
-
-def _numbers(value: object, path: str, length: int, what: str) -> tuple[float, ...]:
-    if not isinstance(value, list | tuple) or len(value) != length:
-        raise invalid(path, value, what)
-    return tuple(_number(v, f"{path}[{k}]") for k, v in enumerate(value))
-
-
 def _range(value: object, path: str) -> tuple[float, float]:
-    low, high = _numbers(value, path, 2, "[min, max]")
+    low, high = numbers(value, path, 2, "[min, max]")
     return low, high
 
 
 def scene_from_dict(d: Mapping[str, Any]) -> Scene:
     """Parse and validate a scene from its JSON form (see the module docstring)."""
-    top = _mapping(d, "", ("format", "surface", "objects", "goal"), ("noise",))
+    top = mapping(d, "", ("format", "surface", "objects", "goal"), ("noise",))
     if not isinstance(top["format"], str) or top["format"] != SCENE_FORMAT:
         raise invalid("format", top["format"], repr(SCENE_FORMAT))
     surface = _surface(top["surface"], "surface")
@@ -414,29 +301,29 @@ def scene_from_dict(d: Mapping[str, Any]) -> Scene:
     objects = []
     for i, raw in enumerate(raw_objects):
         path = f"objects[{i}]"
-        entry = _mapping(raw, path, ("name", "kind", "pose"))
-        x, y, theta = _numbers(entry["pose"], f"{path}.pose", 3, "[x, y, theta]")
+        entry = mapping(raw, path, ("name", "kind", "pose"))
+        x, y, theta = numbers(entry["pose"], f"{path}.pose", 3, "[x, y, theta]")
         objects.append(
             ObjectPlacement(
                 name=_name(entry["name"], f"{path}.name"),
-                kind=_string(entry["kind"], f"{path}.kind"),
+                kind=string(entry["kind"], f"{path}.kind"),
                 pose=(x, y, theta),
             )
         )
-    goal = _mapping(top["goal"], "goal", ("object",), ("region", "success"))
+    goal = mapping(top["goal"], "goal", ("object",), ("region", "success"))
     region = surface.default_goal_region
     if "region" in goal:
-        raw_region = _mapping(goal["region"], "goal.region", ("x", "y"))
+        raw_region = mapping(goal["region"], "goal.region", ("x", "y"))
         region = (
             _range(raw_region["x"], "goal.region.x"),
             _range(raw_region["y"], "goal.region.y"),
         )
-    success = _string(goal.get("success", surface.success), "goal.success")
+    success = string(goal.get("success", surface.success), "goal.success")
     if success not in SUCCESS_MODES:
-        raise invalid("goal.success", success, _allowed(SUCCESS_MODES))
+        raise invalid("goal.success", success, allowed(SUCCESS_MODES))
     raw_noise = top.get("noise", DEFAULT_NOISE)
     if not isinstance(raw_noise, str | Mapping):
-        raise invalid("noise", raw_noise, _NOISE_EXPECTED)
+        raise invalid("noise", raw_noise, NOISE_FORMS)
     sigma = resolve_noise(raw_noise, "noise")
     return Scene(
         surface=surface.name,
@@ -619,7 +506,7 @@ def generate_scene(
     inside the surface's workspace.
     """
     if level not in LEVELS:
-        raise invalid("level", level, _allowed(LEVELS))
+        raise invalid("level", level, allowed(LEVELS))
     world = _surface(surface, "surface")
     rng = np.random.default_rng(seed)
     kinds = list(_CLUTTER_WEIGHTS)
@@ -674,7 +561,7 @@ def _suite_path(directory: Path, surface: str, level: str, index: int) -> Path:
 def paper_suite(level: Level, surface: str = "table") -> list[Scene]:
     """The ten fixed scenes of a clutter level, as in the paper's Table 1."""
     if level not in LEVELS:
-        raise invalid("level", level, _allowed(LEVELS))
+        raise invalid("level", level, allowed(LEVELS))
     _surface(surface, "surface")
     return [
         load_scene(_suite_path(PAPER_SUITE_DIR, surface, level, i)) for i in range(PAPER_SUITE_SIZE)

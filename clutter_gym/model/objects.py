@@ -7,7 +7,7 @@ and the planar pushing model all derive their geometry from the same few numbers
 Object frame convention: an object's pose is ``(x, y, theta)``, the position of its vertical
 axis at the centre of its base and its yaw about world z.  The base rests on the top of the
 support surface, so the object frame's origin is at height ``surface_z`` and each primitive's
-centre is ``Primitive.z`` above it.  A box primitive's ``sx`` runs along the object's x axis.
+centre is its `Shape`'s ``xyz[2]`` above it.  A box's first size runs along the object's x axis.
 """
 
 from __future__ import annotations
@@ -16,76 +16,15 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-import fcl
-import numpy as np
 import trimesh
+
+from clutter_gym.model.shapes import Shape
 
 Pose = tuple[float, float, float]
 """Planar pose ``(x, y, theta)`` of an object's base centre on a support surface."""
 
 MAX_GRASP_WIDTH = 0.20
 """Widest object (m) the BarrettHand BH-280 on HERB can close around."""
-
-CYLINDER_SECTIONS = 64
-"""Facets of a cylinder's mesh: fine enough that its volume is within 0.2% of analytic."""
-
-
-def _rotation_z(theta: float) -> np.ndarray:
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-@dataclass(frozen=True)
-class Primitive:
-    """One solid of an object, centred on the object's vertical axis ``z`` above its base."""
-
-    shape: Literal["box", "cylinder"]
-    size: tuple[float, ...]
-    """Box: full extents ``(sx, sy, sz)``; cylinder: ``(radius, height)``."""
-    z: float
-
-    def __post_init__(self) -> None:
-        if self.shape not in ("box", "cylinder"):
-            raise ValueError(f"Primitive.shape must be 'box' or 'cylinder', got {self.shape!r}")
-        expected = 3 if self.shape == "box" else 2
-        if len(self.size) != expected or not all(s > 0 for s in self.size):
-            raise ValueError(
-                f"Primitive.size of a {self.shape} needs {expected} positive values, "
-                f"got {self.size!r}"
-            )
-
-    @property
-    def height(self) -> float:
-        return self.size[2] if self.shape == "box" else self.size[1]
-
-    @property
-    def half_xy(self) -> tuple[float, float]:
-        """Half extents of the primitive's planar outline in the object frame."""
-        if self.shape == "box":
-            return self.size[0] / 2, self.size[1] / 2
-        return self.size[0], self.size[0]
-
-    @property
-    def volume(self) -> float:
-        if self.shape == "box":
-            return self.size[0] * self.size[1] * self.size[2]
-        return math.pi * self.size[0] ** 2 * self.size[1]
-
-    def mesh(self) -> trimesh.Trimesh:
-        """Watertight mesh of the primitive in the object frame."""
-        if self.shape == "box":
-            shape = trimesh.creation.box(extents=self.size)
-        else:
-            shape = trimesh.creation.cylinder(
-                radius=self.size[0], height=self.size[1], sections=CYLINDER_SECTIONS
-            )
-        shape.apply_translation((0.0, 0.0, self.z))
-        return shape
-
-    def fcl_geometry(self) -> fcl.CollisionGeometry:
-        if self.shape == "box":
-            return fcl.Box(*self.size)
-        return fcl.Cylinder(self.size[0], self.size[1])
 
 
 @dataclass(frozen=True)
@@ -194,7 +133,7 @@ class ObjectSpec:
     """
 
     kind: str
-    primitives: tuple[Primitive, ...]
+    primitives: tuple[Shape, ...]
     mass: float
     lateral_friction: float
     spinning_friction: float
@@ -212,7 +151,12 @@ class ObjectSpec:
         if self.mass <= 0:
             raise ValueError(f"object {self.kind!r} mass must be positive, got {self.mass}")
         for p in self.primitives:
-            if p.z - p.height / 2 < -1e-9:
+            if p.kind not in ("box", "cylinder") or p.rpy != (0.0, 0.0, 0.0) or p.xyz[:2] != (0, 0):
+                raise ValueError(
+                    f"object {self.kind!r}: {p} is not an upright box or cylinder on the "
+                    "object's vertical axis"
+                )
+            if p.xyz[2] - p.height / 2 < -1e-9:
                 raise ValueError(f"object {self.kind!r} has a primitive below its base: {p}")
         if self.graspable and self.footprint.min_width > MAX_GRASP_WIDTH:
             raise ValueError(
@@ -222,13 +166,13 @@ class ObjectSpec:
 
     @property
     def height(self) -> float:
-        return max(p.z + p.height / 2 for p in self.primitives)
+        return max(p.xyz[2] + p.height / 2 for p in self.primitives)
 
     @property
     def footprint(self) -> Footprint:
         """All-cylinder objects have a circular outline; otherwise the covering box."""
-        if all(p.shape == "cylinder" for p in self.primitives):
-            return Footprint("circle", radius=max(p.size[0] for p in self.primitives))
+        if all(p.kind == "cylinder" for p in self.primitives):
+            return Footprint("circle", radius=max(p.dims[0] for p in self.primitives))
         hx = max(p.half_xy[0] for p in self.primitives)
         hy = max(p.half_xy[1] for p in self.primitives)
         return Footprint("box", half_extents=(hx, hy))
@@ -240,7 +184,7 @@ class ObjectSpec:
     @property
     def com_height(self) -> float:
         """Height of the centre of mass above the base, for uniform density."""
-        return sum(p.volume * p.z for p in self.primitives) / self.volume
+        return sum(p.volume * p.xyz[2] for p in self.primitives) / self.volume
 
     def mesh(self) -> trimesh.Trimesh:
         """The primitives' meshes in the object frame (base centre at the origin).
@@ -251,39 +195,22 @@ class ObjectSpec:
         assert isinstance(mesh, trimesh.Trimesh)
         return mesh
 
-    def fcl_parts(
-        self, pose: Pose, surface_z: float
-    ) -> list[tuple[fcl.CollisionGeometry, fcl.Transform]]:
-        """Each primitive's fcl geometry and world transform at ``pose`` on a surface whose top
-        is ``surface_z``. Callers that must map fcl contacts back to objects keep the geometry:
-        fcl reports contacts by geometry."""
-        rotation = _rotation_z(pose[2])
-        return [
-            (
-                p.fcl_geometry(),
-                fcl.Transform(rotation, np.array([pose[0], pose[1], surface_z + p.z])),
-            )
-            for p in self.primitives
-        ]
-
-    def fcl_objects(self, pose: Pose, surface_z: float) -> list[fcl.CollisionObject]:
-        """One fcl object per primitive (see `fcl_parts`)."""
-        return [fcl.CollisionObject(g, t) for g, t in self.fcl_parts(pose, surface_z)]
-
 
 def _dumbbell() -> ObjectSpec:
     disc_radius, disc_thickness, handle_radius, handle_length = 0.06, 0.04, 0.017, 0.17
     return ObjectSpec(
         kind="dumbbell",
         primitives=(
-            Primitive("cylinder", (disc_radius, disc_thickness), disc_thickness / 2),
-            Primitive(
-                "cylinder", (handle_radius, handle_length), disc_thickness + handle_length / 2
+            Shape("cylinder", (disc_radius, disc_thickness), (0.0, 0.0, disc_thickness / 2)),
+            Shape(
+                "cylinder",
+                (handle_radius, handle_length),
+                (0.0, 0.0, disc_thickness + handle_length / 2),
             ),
-            Primitive(
+            Shape(
                 "cylinder",
                 (disc_radius, disc_thickness),
-                disc_thickness + handle_length + disc_thickness / 2,
+                (0.0, 0.0, disc_thickness + handle_length + disc_thickness / 2),
             ),
         ),
         mass=8.0,
@@ -304,7 +231,7 @@ OBJECTS: dict[str, ObjectSpec] = {
     for spec in (
         ObjectSpec(
             kind="soda_can",
-            primitives=(Primitive("cylinder", (0.033, 0.122), 0.061),),
+            primitives=(Shape("cylinder", (0.033, 0.122), (0.0, 0.0, 0.061)),),
             mass=0.35,
             lateral_friction=0.5,
             spinning_friction=0.001,
@@ -315,7 +242,7 @@ OBJECTS: dict[str, ObjectSpec] = {
         ),
         ObjectSpec(
             kind="juice_bottle",
-            primitives=(Primitive("cylinder", (0.04, 0.20), 0.10),),
+            primitives=(Shape("cylinder", (0.04, 0.20), (0.0, 0.0, 0.10)),),
             mass=0.5,
             lateral_friction=0.5,
             spinning_friction=0.001,
@@ -326,7 +253,7 @@ OBJECTS: dict[str, ObjectSpec] = {
         ),
         ObjectSpec(
             kind="poptart_box",
-            primitives=(Primitive("box", (0.14, 0.05, 0.21), 0.105),),
+            primitives=(Shape("box", (0.14, 0.05, 0.21), (0.0, 0.0, 0.105)),),
             mass=0.25,
             lateral_friction=0.45,
             spinning_friction=0.002,
@@ -337,7 +264,7 @@ OBJECTS: dict[str, ObjectSpec] = {
         ),
         ObjectSpec(
             kind="large_box",
-            primitives=(Primitive("box", (0.36, 0.26, 0.30), 0.15),),
+            primitives=(Shape("box", (0.36, 0.26, 0.30), (0.0, 0.0, 0.15)),),
             mass=1.0,
             lateral_friction=0.45,
             spinning_friction=0.005,

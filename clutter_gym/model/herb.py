@@ -8,19 +8,22 @@ is built from boxes, cylinders and spheres.
 Frames: the world frame is the ``herb_base`` frame (origin on the floor under the robot, x forward,
 z up). Each arm link ``{side}_wam{i}`` has its URDF frame at joint i with the joint axis along its
 z axis; these frames are the Spong-DH frames of WAM_DH rotated by the joint angle, which is what
-lets ``clutter_gym.robot.kinematics`` reproduce pybullet's forward kinematics exactly.
+lets ``clutter_gym.model.kinematics`` reproduce pybullet's forward kinematics exactly.
 """
 
 from __future__ import annotations
 
 import hashlib
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from clutter_gym.files import atomic_write_text, cache_dir
+from clutter_gym.model.files import atomic_write_text, cache_dir
+from clutter_gym.model.shapes import Shape
+from clutter_gym.model.transforms import Vec3, rotation_about, rotation_rpy, rpy_of
 
 PI = float(np.pi)
 SIDES: tuple[str, str] = ("left", "right")
@@ -112,6 +115,28 @@ HAND_PROXIMAL_EFFORT, HAND_PROXIMAL_VELOCITY = 3.0, 2.0
 HAND_DISTAL_EFFORT, HAND_DISTAL_VELOCITY = 1.5, 1.0
 
 
+@dataclass(frozen=True)
+class HandCommand:
+    """The BH-280's command, as the env's trajectory rows carry it: ``spread`` and ``closure``
+    as fractions in [0, 1] (closure 0 is the flat, fully open hand; 1 is the proximal joints at
+    their upper limit)."""
+
+    spread: float = 0.0
+    closure: float = 0.0
+
+
+OPEN_HAND = HandCommand()
+
+
+def hand_targets(hand: HandCommand) -> np.ndarray:
+    """Joint targets (8,) of a hand command, in `hand_joint_names` order (pybullet ignores
+    URDF <mimic>: the distal joints follow the proximal ones by the coupling ratio here)."""
+    spread_angle = float(np.clip(hand.spread, 0.0, 1.0)) * HAND_SPREAD_RANGE[1]
+    prox = float(np.clip(hand.closure, 0.0, 1.0)) * HAND_PROXIMAL_RANGE[1]
+    dist = min(prox * HAND_DISTAL_COUPLING, HAND_DISTAL_RANGE[1])
+    return np.array([spread_angle, spread_angle, prox, prox, prox, dist, dist, dist])
+
+
 def arm_joint_names(side: str) -> list[str]:
     """Names of the 7 arm joints, in chain order."""
     return [f"{side}_j{i}" for i in range(1, 8)]
@@ -146,7 +171,6 @@ def mirror_arm_configuration(q: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # URDF generation
 # --------------------------------------------------------------------------------------------
-Vec3 = tuple[float, float, float]
 _ZERO: Vec3 = (0.0, 0.0, 0.0)
 
 _MATERIALS = {
@@ -165,36 +189,12 @@ def _origin(xyz: Vec3 = _ZERO, rpy: Vec3 = _ZERO) -> str:
     return f'<origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>'
 
 
-class Shape(NamedTuple):
-    """One primitive with its pose in the link frame; knows its own solid inertia."""
-
-    kind: str  # "box" (dims = size), "cylinder" (radius, length along z) or "sphere" (radius,)
-    dims: tuple[float, ...]
-    xyz: Vec3 = _ZERO
-    rpy: Vec3 = _ZERO
-
-    def geometry(self) -> str:
-        if self.kind == "box":
-            return f'<box size="{_fmt(self.dims)}"/>'
-        if self.kind == "cylinder":
-            return f'<cylinder radius="{self.dims[0]:.9g}" length="{self.dims[1]:.9g}"/>'
-        return f'<sphere radius="{self.dims[0]:.9g}"/>'
-
-    def principal_inertia(self, mass: float) -> Vec3:
-        """Solid-body principal moments about the primitive's own centre and axes."""
-        if self.kind == "box":
-            x, y, z = self.dims
-            return (
-                mass * (y * y + z * z) / 12,
-                mass * (x * x + z * z) / 12,
-                mass * (x * x + y * y) / 12,
-            )
-        if self.kind == "cylinder":
-            r, h = self.dims
-            side = mass * (3 * r * r + h * h) / 12
-            return (side, side, mass * r * r / 2)
-        i = 0.4 * mass * self.dims[0] ** 2
-        return (i, i, i)
+def _urdf_geometry(shape: Shape) -> str:
+    if shape.kind == "box":
+        return f'<box size="{_fmt(shape.dims)}"/>'
+    if shape.kind == "cylinder":
+        return f'<cylinder radius="{shape.dims[0]:.9g}" length="{shape.dims[1]:.9g}"/>'
+    return f'<sphere radius="{shape.dims[0]:.9g}"/>'
 
 
 def _link(
@@ -217,7 +217,7 @@ def _link(
     ]
     for s in shapes:
         mat = f'<material name="{material}"/>'
-        geom = f"<geometry>{s.geometry()}</geometry>"
+        geom = f"<geometry>{_urdf_geometry(s)}</geometry>"
         parts.append(f"<visual>{_origin(s.xyz, s.rpy)}{geom}{mat}</visual>")
         parts.append(f"<collision>{_origin(s.xyz, s.rpy)}{geom}</collision>")
     parts.append("</link>")
@@ -241,8 +241,8 @@ def _joint(
     carries the rotation, so the simulator spends nothing on it (a parked arm).
     """
     if kind == "revolute" and fixed_at is not None:
-        rotation = _rotation_rpy(rpy) @ _rotation_axis_angle(axis, fixed_at)
-        kind, rpy, limits = "fixed", _rpy_of(rotation), None
+        rotation = rotation_rpy(rpy) @ rotation_about(axis, fixed_at)
+        kind, rpy, limits = "fixed", rpy_of(rotation), None
     parts = [
         f'<joint name="{name}" type="{kind}">',
         f'<parent link="{parent}"/>',
@@ -257,33 +257,6 @@ def _joint(
         )
     parts.append("</joint>")
     return "\n".join(parts)
-
-
-def _rotation_rpy(rpy: Vec3) -> np.ndarray:
-    """URDF convention: R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def _rotation_axis_angle(axis: Vec3, angle: float) -> np.ndarray:
-    k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(angle) * skew + (1.0 - np.cos(angle)) * skew @ skew
-
-
-def _rpy_of(r: np.ndarray) -> Vec3:
-    """Inverse of `_rotation_rpy` (pitch kept in [-pi/2, pi/2])."""
-    pitch = float(np.arcsin(np.clip(-r[2, 0], -1.0, 1.0)))
-    if abs(r[2, 0]) < 1.0 - 1e-12:
-        return float(np.arctan2(r[2, 1], r[2, 2])), pitch, float(np.arctan2(r[1, 0], r[0, 0]))
-    return 0.0, pitch, float(np.arctan2(-r[0, 1], r[1, 1]))  # gimbal lock: fold roll into yaw
 
 
 def _body() -> list[str]:

@@ -1,38 +1,32 @@
 """Collision geometry of one HERB arm and hand, as data for a collision checker.
 
-The primitives are read from ``herb_model.arm_links`` / ``hand_links``, the same data the URDF is
+The primitives are read from ``herb.arm_links`` / ``hand_links``, the same data the URDF is
 generated from, so the checker and pybullet see the same shapes. Arm links ride on the frames
 of ``ArmKinematics.link_frames``; finger links ride on hand_base through the hand joints of
-``herb_model.finger_joints`` at a hand command (spread, closure), as `herb.hand_targets` sets them.
+``herb.finger_joints`` at a hand command (spread, closure), as `herb.hand_targets` sets them.
 Link names carry no side prefix: both arms have the same geometry.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.herb import hand_targets
-from clutter_gym.robot.kinematics import rotation_exp, transform
-
-Hand = tuple[float, float]
-"""Hand command (spread, closure), both fractions in [0, 1] as in `herb.hand_targets`."""
+from clutter_gym.model import herb as hm
+from clutter_gym.model.herb import HandCommand, hand_targets
+from clutter_gym.model.shapes import Shape
+from clutter_gym.model.transforms import rotation_exp, transform
 
 #: Links whose frames `ArmKinematics.link_frames` returns, in its order.
 FRAME_LINKS: tuple[str, ...] = ("wam_base", *(f"wam{i}" for i in range(1, 8)), "hand_base")
 
 
-@dataclass(frozen=True)
-class Primitive:
-    """One collision primitive: a box (full sizes), cylinder (radius, length along z) or sphere
-    (radius,), with its pose in its link's frame."""
+class LinkShape(NamedTuple):
+    """A shape of the arm or hand, with the (side-less) name of the link it belongs to."""
 
     link: str
-    kind: str
-    dims: tuple[float, ...]
-    local: np.ndarray
+    shape: Shape
 
 
 class ArmGeometry:
@@ -40,10 +34,8 @@ class ArmGeometry:
 
     def __init__(self) -> None:
         links = {**hm.arm_links(), **hm.hand_links()}
-        self.primitives: tuple[Primitive, ...] = tuple(
-            Primitive(name, s.kind, s.dims, transform(s.xyz, s.rpy))
-            for name, spec in links.items()
-            for s in spec.shapes
+        self.primitives: tuple[LinkShape, ...] = tuple(
+            LinkShape(name, s) for name, spec in links.items() for s in spec.shapes
         )
         self.links: tuple[str, ...] = tuple(links)
         self._joints = hm.finger_joints()
@@ -52,11 +44,11 @@ class ArmGeometry:
         self._anchor = np.array(
             [FRAME_LINKS.index(p.link) if p.link in FRAME_LINKS else hand for p in self.primitives]
         )
-        self._offsets: dict[Hand, np.ndarray] = {}
+        self._offsets: dict[HandCommand, np.ndarray] = {}
 
-    def finger_frames(self, hand: Hand) -> dict[str, np.ndarray]:
+    def finger_frames(self, hand: HandCommand) -> dict[str, np.ndarray]:
         """Poses of hand_base (identity) and the knuckle and finger links in hand_base."""
-        angles = dict(zip(self._joints, hand_targets(*hand), strict=True))
+        angles = dict(zip(self._joints, hand_targets(hand), strict=True))
         frames = {"hand_base": np.eye(4)}
         # finger_joints lists every parent before its children.
         for name, j in self._joints.items():
@@ -65,27 +57,27 @@ class ArmGeometry:
             frames[j.child] = frames[j.parent] @ transform(j.xyz, j.rpy) @ turn
         return frames
 
-    def offsets(self, hand: Hand) -> np.ndarray:
+    def offsets(self, hand: HandCommand) -> np.ndarray:
         """(P, 4, 4) pose of each primitive in its anchor frame; cached per hand command since
         planners use a handful of hand shapes."""
-        key = (float(hand[0]), float(hand[1]))
+        key = HandCommand(float(hand.spread), float(hand.closure))
         cached = self._offsets.get(key)
         if cached is None:
             fingers = self.finger_frames(key)
             cached = np.stack(
                 [
-                    p.local if p.link in FRAME_LINKS else fingers[p.link] @ p.local
+                    p.shape.local if p.link in FRAME_LINKS else fingers[p.link] @ p.shape.local
                     for p in self.primitives
                 ]
             )
             self._offsets[key] = cached
         return cached
 
-    def primitive_poses(self, link_frames: np.ndarray, hand: Hand) -> np.ndarray:
+    def primitive_poses(self, link_frames: np.ndarray, hand: HandCommand) -> np.ndarray:
         """(P, 4, 4) world poses of the primitives from `ArmKinematics.link_frames` (9, 4, 4)."""
         return link_frames[self._anchor] @ self.offsets(hand)
 
-    def link_poses(self, link_frames: np.ndarray, hand: Hand) -> dict[str, np.ndarray]:
+    def link_poses(self, link_frames: np.ndarray, hand: HandCommand) -> dict[str, np.ndarray]:
         """World pose of every link frame (finger links included) at a hand command."""
         poses = {name: link_frames[i] for i, name in enumerate(FRAME_LINKS)}
         hand_base = poses["hand_base"]

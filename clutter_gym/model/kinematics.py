@@ -11,55 +11,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from clutter_gym.robot import herb_model as hm
+from clutter_gym.model import herb as hm
+from clutter_gym.model.transforms import rotation_exp, rotation_log, transform
 
 Accept = Callable[[np.ndarray], bool]
 
 #: Largest shoulder-to-wrist-centre distance of the WAM (upper arm + forearm with offsets).
 _MAX_WRIST_REACH = float(np.hypot(0.55, 0.045) + np.hypot(0.3, 0.045))
-
-
-def transform(xyz: tuple[float, float, float], rpy: tuple[float, float, float]) -> np.ndarray:
-    """4x4 homogeneous transform from a URDF origin (fixed-axis roll, pitch, yaw)."""
-    cr, sr = np.cos(rpy[0]), np.sin(rpy[0])
-    cp, sp = np.cos(rpy[1]), np.sin(rpy[1])
-    cy, sy = np.cos(rpy[2]), np.sin(rpy[2])
-    t = np.eye(4)
-    t[:3, :3] = [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
-    t[:3, 3] = xyz
-    return t
-
-
-def rotation_log(r: np.ndarray) -> np.ndarray:
-    """Rotation vector (axis * angle) of a rotation matrix, robust near 0 and pi."""
-    vee = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    cos_t = np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)
-    theta = float(np.arccos(cos_t))
-    if theta < 1e-7:
-        return 0.5 * vee
-    if np.pi - theta > 1e-4:
-        return theta / (2.0 * np.sin(theta)) * vee
-    # Near pi: axis from the symmetric part, sign from the small antisymmetric part.
-    b = (r + np.eye(3)) / 2.0
-    k = int(np.argmax(np.diag(b)))
-    axis = b[:, k] / np.sqrt(b[k, k])
-    if axis @ vee < 0:
-        axis = -axis
-    return theta * axis / np.linalg.norm(axis)
-
-
-def rotation_exp(w: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a rotation vector (Rodrigues)."""
-    theta = float(np.linalg.norm(w))
-    if theta < 1e-12:
-        return np.eye(3)
-    k = w / theta
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(theta) * kx + (1.0 - np.cos(theta)) * (kx @ kx)
 
 
 def pose_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:

@@ -26,10 +26,11 @@ from collections.abc import Callable
 import numpy as np
 from gymnasium import spaces
 
-from clutter_gym.errors import invalid
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.robot.herb import HandCommand, Herb
-from clutter_gym.robot.kinematics import ArmKinematics
+from clutter_gym.model import herb as hm
+from clutter_gym.model.fields import invalid
+from clutter_gym.model.herb import OPEN_HAND, HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.sim.robot import Herb
 
 JOINT_SPEED_SCALE = 0.5
 HAND_CLOSE_TIME = 1.0  # seconds for closure 0 -> 1 (the BH-280 closes in about a second)
@@ -89,7 +90,7 @@ class TrajectoryController:
         self.action_space = spaces.Box(
             low.astype(np.float32), high.astype(np.float32), dtype=np.float32
         )
-        self._hand = HandCommand()
+        self._hand = OPEN_HAND
 
     def reset(self, hand: HandCommand) -> None:
         self._hand = hand

@@ -24,8 +24,8 @@ from typing import NoReturn
 
 import numpy as np
 
-from clutter_gym import __version__
-from clutter_gym.cli_args import (
+from agents.benchmark import SUITES
+from agents.cli_args import (
     input_file,
     integer,
     names,
@@ -35,20 +35,12 @@ from clutter_gym.cli_args import (
     positive_number,
     read_json,
 )
+from agents.jobs import BACKENDS
+from clutter_gym import __version__
 from clutter_gym.media import write_json, write_png
-from clutter_gym.scene import (
-    LEVELS,
-    NOISE_LEVELS,
-    generate_scene,
-    load_scene,
-    resolve_noise,
-    save_scene,
-    scene_to_dict,
-)
-from clutter_gym.world import SURFACES
-
-BACKENDS = ("local", "ray")
-SUITES = ("table1", "fig15")
+from clutter_gym.model.noise import NOISE_LEVELS, resolve_noise
+from clutter_gym.model.scene import LEVELS, generate_scene, load_scene, save_scene, scene_to_dict
+from clutter_gym.model.world import SURFACES
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -222,21 +214,20 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefa
     """The module docstring as written, and every option's default in --help."""
 
 
-def _noise(text: str) -> str:
+def _noise(text: str) -> str | tuple[float, float]:
     """A noise level name, or "sigma_xy,sigma_theta" in metres and radians."""
     try:
         if "," in text:
             xy, theta = text.split(",", 1)
-            resolve_noise((float(xy), float(theta)))
-        else:
-            resolve_noise(text)
+            return resolve_noise((float(xy), float(theta)))
+        resolve_noise(text)
+        return text
     except ValueError as error:
         levels = ", ".join(NOISE_LEVELS)
         why = f" ({error})" if "," in text else ""
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a noise level ({levels}) or 'sigma_xy,sigma_theta'{why}"
         ) from None
-    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -283,7 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
     benchmark = sub.add_parser(
         "benchmark", help="the paper's experiments (Table 1, pushing vs pick-and-place)"
     )
-    benchmark.add_argument("--suite", required=True, choices=SUITES, help="which experiment")
+    benchmark.add_argument("--suite", required=True, choices=tuple(SUITES), help="which experiment")
     benchmark.add_argument(
         "--planners",
         type=names,

@@ -20,11 +20,12 @@ from typing import Literal
 
 import numpy as np
 
-from clutter_gym.objects import ObjectSpec
-from clutter_gym.robot.herb import Herb
-from clutter_gym.scene import Scene
-from clutter_gym.sim import Simulator
-from clutter_gym.world import Surface
+from clutter_gym.model.objects import ObjectSpec
+from clutter_gym.model.scene import Scene
+from clutter_gym.model.transforms import tilt_of_quaternion
+from clutter_gym.model.world import Surface
+from clutter_gym.sim.robot import Herb
+from clutter_gym.sim.simulator import Simulator
 
 LIFT_HEIGHT = 0.10
 TOPPLE_ANGLE = np.deg2rad(45.0)
@@ -120,18 +121,12 @@ class RetrievalTask:
             on_top = x_min <= pos[0] <= x_max and y_min <= pos[1] <= y_max
             if not on_top or pos[2] < self.surface.top_z - FELL_DEPTH:
                 return f"{name} left the {self.surface.name}"
-            if tilt(quat) > TOPPLE_ANGLE:
+            if tilt_of_quaternion(quat) > TOPPLE_ANGLE:
                 return f"{name} toppled"
         return ""
 
     def _goal_in_region(self) -> bool:
         pos, quat = self.sim.base_pose(self.goal)
         (x_lo, x_hi), (y_lo, y_hi) = self.scene.goal.region
-        return bool(x_lo <= pos[0] <= x_hi and y_lo <= pos[1] <= y_hi and tilt(quat) < TOPPLE_ANGLE)
-
-
-def tilt(quat: np.ndarray) -> float:
-    """Angle (rad) between a body's z axis and the world's vertical."""
-    x, y, _, _ = quat
-    cos_tilt = 1.0 - 2.0 * (x * x + y * y)
-    return float(np.arccos(np.clip(cos_tilt, -1.0, 1.0)))
+        inside = x_lo <= pos[0] <= x_hi and y_lo <= pos[1] <= y_hi
+        return bool(inside and tilt_of_quaternion(quat) < TOPPLE_ANGLE)

@@ -22,8 +22,8 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
-from clutter_gym.objects import ObjectSpec
-from clutter_gym.world import Box
+from clutter_gym.model.objects import ObjectSpec
+from clutter_gym.model.world import Box
 
 TIMESTEP = 1.0 / 240.0
 GRAVITY = -9.81
@@ -139,12 +139,12 @@ class Simulator:
         """A movable object standing upright at planar pose (x, y, theta) on a surface."""
         c = self.client
         prims = spec.primitives
-        frames = [[0.0, 0.0, p.z] for p in prims]
+        frames = [[0.0, 0.0, p.xyz[2]] for p in prims]
         shapes = {
-            "shapeTypes": [_shape_type(p.shape) for p in prims],
-            "halfExtents": [_half_extents(p.shape, p.size) for p in prims],
-            "radii": [p.size[0] if p.shape == "cylinder" else 0.0 for p in prims],
-            "lengths": [p.size[1] if p.shape == "cylinder" else 0.0 for p in prims],
+            "shapeTypes": [_shape_type(p.kind) for p in prims],
+            "halfExtents": [_half_extents(p.kind, p.dims) for p in prims],
+            "radii": [p.dims[0] if p.kind == "cylinder" else 0.0 for p in prims],
+            "lengths": [p.dims[1] if p.kind == "cylinder" else 0.0 for p in prims],
         }
         col = c.createCollisionShapeArray(**shapes, collisionFramePositions=frames)
         vis = c.createVisualShapeArray(

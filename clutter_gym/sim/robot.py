@@ -10,14 +10,14 @@ spread mirror each other.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pybullet
 
-from clutter_gym.robot import herb_model as hm
-from clutter_gym.sim import Simulator
+from clutter_gym.model import herb as hm
+from clutter_gym.model.herb import OPEN_HAND, HandCommand, hand_targets
+from clutter_gym.sim.simulator import Simulator
 
 FINGERS = ("f1", "f2", "f3")
 FINGER_FRICTION = 1.0  # rubber-padded fingertips and palm
@@ -36,23 +36,6 @@ def parked_herb_urdf() -> Path:
 @functools.cache
 def _cached_urdf() -> Path:
     return hm.write_herb_urdf(parked=hm.parked_left_side())
-
-
-def hand_targets(spread: float, closure: float) -> np.ndarray:
-    """Joint targets (8,) for a hand command: spread and closure are fractions in [0, 1].
-
-    closure 0 is the flat, fully open hand; 1 is the proximal joints at their upper limit.
-    """
-    spread_angle = float(np.clip(spread, 0.0, 1.0)) * hm.HAND_SPREAD_RANGE[1]
-    prox = float(np.clip(closure, 0.0, 1.0)) * hm.HAND_PROXIMAL_RANGE[1]
-    dist = min(prox * hm.HAND_DISTAL_COUPLING, hm.HAND_DISTAL_RANGE[1])
-    return np.array([spread_angle, spread_angle, prox, prox, prox, dist, dist, dist])
-
-
-@dataclass(frozen=True)
-class HandCommand:
-    spread: float = 0.0
-    closure: float = 0.0
 
 
 class Herb:
@@ -87,12 +70,12 @@ class Herb:
         c.changeDynamics(self.body_id, self.palm_link, lateralFriction=FINGER_FRICTION)
 
     # --- state ------------------------------------------------------------------------------
-    def reset(self, arm_q: np.ndarray, hand: HandCommand = HandCommand()) -> None:
+    def reset(self, arm_q: np.ndarray, hand: HandCommand = OPEN_HAND) -> None:
         """Teleport to a configuration (only between episodes) and hold it."""
         c = self.sim.client
         for j, q in zip(self.arm, arm_q, strict=True):
             c.resetJointState(self.body_id, j, float(q))
-        for j, q in zip(self.hand, hand_targets(hand.spread, hand.closure), strict=True):
+        for j, q in zip(self.hand, hand_targets(hand), strict=True):
             c.resetJointState(self.body_id, j, float(q))
         self.command(np.asarray(arm_q, dtype=np.float64), hand)
 
@@ -127,6 +110,6 @@ class Herb:
             self.body_id,
             self.hand,
             pybullet.POSITION_CONTROL,
-            targetPositions=hand_targets(hand.spread, hand.closure).tolist(),
+            targetPositions=hand_targets(hand).tolist(),
             forces=self._hand_forces.tolist(),
         )

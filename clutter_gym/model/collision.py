@@ -1,5 +1,6 @@
-"""One collision layer for the planners: HERB's right arm and hand against the support surface,
-the objects and itself, on python-fcl broad-phase managers.
+"""The one collision layer (python-fcl): HERB's right arm and hand against the support surface,
+the objects and itself; objects against objects (scene validation); the planners' Volumes.
+Nothing else in the project calls fcl.
 
 fcl reports contacts by geometry, not by object, so every geometry is mapped back to what it
 belongs to (an object's name, or "robot") by ``id(geometry)``. Planners consume the checks as
@@ -20,12 +21,14 @@ import fcl
 import numpy as np
 import trimesh
 
-from clutter_gym.objects import ObjectSpec, Pose
-from clutter_gym.robot.geometry import ArmGeometry, Hand
-from clutter_gym.robot.kinematics import ArmKinematics
-from clutter_gym.world import Surface
-
-OPEN_HAND: Hand = (0.0, 0.0)
+from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.herb import OPEN_HAND, HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.objects import ObjectSpec, Pose
+from clutter_gym.model.shapes import Shape
+from clutter_gym.model.trajectory import Trajectory
+from clutter_gym.model.transforms import rotation_z
+from clutter_gym.model.world import Surface
 
 _HAND_LINKS = ("hand_base", "f1_knuckle", "f2_knuckle") + tuple(
     f"f{i}_{part}" for i in (1, 2, 3) for part in ("prox", "dist")
@@ -46,12 +49,44 @@ SURFACE_PADDING = 0.015
 about a centimetre, and the task fails the moment the robot touches the surface."""
 
 
-def _fcl_geometry(kind: str, dims: tuple[float, ...]) -> fcl.CollisionGeometry:
-    if kind == "box":
-        return fcl.Box(*dims)
-    if kind == "cylinder":
-        return fcl.Cylinder(dims[0], dims[1])
-    return fcl.Sphere(dims[0])
+def _fcl_geometry(shape: Shape) -> fcl.CollisionGeometry:
+    if shape.kind == "box":
+        return fcl.Box(*shape.dims)
+    if shape.kind == "cylinder":
+        return fcl.Cylinder(shape.dims[0], shape.dims[1])
+    return fcl.Sphere(shape.dims[0])
+
+
+def _object_transforms(spec: ObjectSpec, pose: Pose, surface_z: float) -> list[fcl.Transform]:
+    """World transforms of an object's shapes at a planar pose on a surface of top ``surface_z``
+    (its shapes are upright on its vertical axis)."""
+    rotation = rotation_z(pose[2])
+    return [
+        fcl.Transform(rotation, np.array([pose[0], pose[1], surface_z + p.xyz[2]]))
+        for p in spec.primitives
+    ]
+
+
+def penetration_depth(
+    a: ObjectSpec, pose_a: Pose, b: ObjectSpec, pose_b: Pose, surface_z: float
+) -> float:
+    """Deepest penetration between two objects standing on a surface; 0 when they are apart."""
+    depth = 0.0
+    placed_a = [
+        fcl.CollisionObject(_fcl_geometry(s), t)
+        for s, t in zip(a.primitives, _object_transforms(a, pose_a, surface_z), strict=True)
+    ]
+    placed_b = [
+        fcl.CollisionObject(_fcl_geometry(s), t)
+        for s, t in zip(b.primitives, _object_transforms(b, pose_b, surface_z), strict=True)
+    ]
+    for pa in placed_a:
+        for pb in placed_b:
+            request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=1)
+            result = fcl.CollisionResult()
+            if fcl.collide(pa, pb, request, result):
+                depth = max(depth, *(c.penetration_depth for c in result.contacts))
+    return depth
 
 
 def _manager(objects: Iterable[fcl.CollisionObject]) -> fcl.DynamicAABBTreeCollisionManager:
@@ -110,18 +145,18 @@ class Volume:
     def of_object(cls, name: str, spec: ObjectSpec, poses: np.ndarray, surface_z: float) -> Volume:
         """Volume(o, R): object ``name`` placed at every planar pose (N, 3) of a region."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-        geometries = [p.fcl_geometry() for p in spec.primitives]
+        geometries = [_fcl_geometry(p) for p in spec.primitives]
         parts = []
         for x, y, theta in poses:
-            for geometry, (_, transform) in zip(
-                geometries, spec.fcl_parts((x, y, theta), surface_z), strict=True
+            for geometry, transform in zip(
+                geometries, _object_transforms(spec, (x, y, theta), surface_z), strict=True
             ):
                 parts.append((fcl.CollisionObject(geometry, transform), geometry, name))
         return cls(parts)
 
     @classmethod
     def of_robot(
-        cls, robot: RobotCollision, path: np.ndarray, hand: Hand, step_rad: float = 0.02
+        cls, robot: RobotCollision, path: np.ndarray, hand: HandCommand, step_rad: float = 0.02
     ) -> Volume:
         """Volume(robot, tau): the arm and hand at configurations along a joint path (N, 7),
         sampled so that no joint moves more than ``step_rad`` between samples."""
@@ -133,6 +168,25 @@ class Volume:
                 transform = fcl.Transform(pose[:3, :3], pose[:3, 3])
                 parts.append((fcl.CollisionObject(geometry, transform), geometry, ROBOT))
         return cls(parts)
+
+    @classmethod
+    def of_trajectory(
+        cls, robot: RobotCollision, trajectory: Trajectory, step_rad: float = 0.02
+    ) -> Volume:
+        """Volume(robot, tau) of every segment of a trajectory (see `of_robot`)."""
+        total = cls()
+        for s in trajectory.segments:
+            total += cls.of_robot(robot, s.path, s.hand, step_rad)
+        return total
+
+    @classmethod
+    def of_box(
+        cls, label: str, centre: np.ndarray, sizes: tuple[float, float, float], yaw: float
+    ) -> Volume:
+        """A box of full ``sizes`` at ``centre`` (3,), turned by ``yaw`` about z (a corridor)."""
+        geometry = fcl.Box(*sizes)
+        placed = fcl.CollisionObject(geometry, fcl.Transform(rotation_z(yaw), centre))
+        return cls([(placed, geometry, label)])
 
     def __add__(self, other: Volume) -> Volume:
         return Volume(self.parts + other.parts)
@@ -324,7 +378,7 @@ class RobotCollision:
     def __init__(self, kinematics: ArmKinematics, geometry: ArmGeometry) -> None:
         self.kinematics = kinematics
         self.geometry = geometry
-        self.geometries = [_fcl_geometry(p.kind, p.dims) for p in geometry.primitives]
+        self.geometries = [_fcl_geometry(p.shape) for p in geometry.primitives]
         self._objects = [fcl.CollisionObject(g, fcl.Transform()) for g in self.geometries]
         self.manager = _manager(self._objects)
 
@@ -336,9 +390,9 @@ class RobotCollision:
             )
 
         self._self_pairs = [(group(a), group(b)) for a, b in SELF_COLLISION_GROUPS]
-        self._placed: tuple[bytes, Hand] | None = None
+        self._placed: tuple[bytes, HandCommand] | None = None
 
-    def place(self, q: np.ndarray, hand: Hand) -> None:
+    def place(self, q: np.ndarray, hand: HandCommand) -> None:
         """Move the primitives to configuration q and hand command; no-op if already there."""
         q = np.asarray(q, dtype=float)
         key = (q.tobytes(), hand)
@@ -353,7 +407,7 @@ class RobotCollision:
             b.update()
         self._placed = key
 
-    def self_collision(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> bool:
+    def self_collision(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> bool:
         """Whether two links of `SELF_COLLISION_GROUPS` penetrate at q."""
         self.place(q, hand)
         return any(_collide(a, b, _Query()).hits for a, b in self._self_pairs)
@@ -366,7 +420,7 @@ class CollisionChecker:
         self.world = world
         self.robot = robot
 
-    def surface_collision(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> bool:
+    def surface_collision(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> bool:
         """Whether the arm or hand penetrates the table or shelf."""
         self.robot.place(q, hand)
         return bool(_collide(self.robot.manager, self.world.surface_manager, _Query()).hits)
@@ -374,7 +428,7 @@ class CollisionChecker:
     def in_collision(
         self,
         q: np.ndarray,
-        hand: Hand = OPEN_HAND,
+        hand: HandCommand = OPEN_HAND,
         ignore: Iterable[str] = (),
         self_collision: bool = True,
     ) -> bool:
@@ -382,7 +436,7 @@ class CollisionChecker:
         return self._in_collision(q, hand, self.world.geometry_ids(ignore), self_collision)
 
     def _in_collision(
-        self, q: np.ndarray, hand: Hand, skip: frozenset[int], self_collision: bool
+        self, q: np.ndarray, hand: HandCommand, skip: frozenset[int], self_collision: bool
     ) -> bool:
         if self.surface_collision(q, hand):
             return True
@@ -390,7 +444,7 @@ class CollisionChecker:
             return True
         return self_collision and self.robot.self_collision(q, hand)
 
-    def touching_objects(self, q: np.ndarray, hand: Hand = OPEN_HAND) -> set[str]:
+    def touching_objects(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> set[str]:
         """Names of the objects the arm penetrates at q (FindPenetrated)."""
         self.robot.place(q, hand)
         query = _collide(self.robot.manager, self.world.object_manager, _Query(first_only=False))
@@ -398,7 +452,7 @@ class CollisionChecker:
         return {owner[g] for pair in query.hits for g in pair if g in owner}
 
     def swept_objects(
-        self, path: np.ndarray, hand: Hand = OPEN_HAND, step_rad: float = 0.02
+        self, path: np.ndarray, hand: HandCommand = OPEN_HAND, step_rad: float = 0.02
     ) -> set[str]:
         """Names of the objects penetrated anywhere along a joint path (N, 7), sampled so that
         no joint moves more than step_rad between samples (Volume(robot, tau) + FindPenetrated)."""
@@ -408,7 +462,7 @@ class CollisionChecker:
         return found
 
     def checker(
-        self, hand: Hand = OPEN_HAND, ignore: Iterable[str] = (), objects: bool = True
+        self, hand: HandCommand = OPEN_HAND, ignore: Iterable[str] = (), objects: bool = True
     ) -> Callable[[np.ndarray], bool]:
         """A collision-free predicate of q, e.g. for ``ArmKinematics.solve_ik(accept=...)``;
         with ``objects=False`` it checks the surface and self-collision only."""

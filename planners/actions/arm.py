@@ -1,0 +1,131 @@
+"""HERB's right arm as the actions use it: collision checks against obstacle volumes (counted),
+IK, straight TCP lines and GoTo, all within the plan's budget.
+
+This is the one object through which the actions reach the collision checker, the IK and the
+GoTo planner; it is passed to them beside the `PlanningContext`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from clutter_gym.model import herb as hm
+from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.collision import (
+    CollisionChecker,
+    CollisionWorld,
+    RobotCollision,
+    Volume,
+    interpolate,
+)
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.trajectory import Segment, Trajectory
+from clutter_gym.model.world import Surface
+from planners.actions.settings import Budget, PlannerSettings, PlanStats
+from planners.goto import JointConstraint, plan_goto
+
+ARM_CHECK_STEP = 0.02
+"""rad between collision-checked configurations along a motion."""
+WAYPOINT_SPACING = 0.025
+"""m between waypoints of straight hand motions."""
+IK_RESTARTS = 8
+"""Restarts of an IK solve from random elbow-up configurations after the home pose."""
+
+Free = Callable[[np.ndarray], bool]
+"""Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
+
+
+class Arm:
+    """The right arm's kinematics and collision model, with the plan's budget and counters."""
+
+    def __init__(
+        self,
+        surface: Surface,
+        settings: PlannerSettings,
+        stats: PlanStats,
+        budget: Budget,
+        rng: np.random.Generator,
+    ) -> None:
+        self.surface = surface
+        self.settings = settings
+        self.stats = stats
+        self.budget = budget
+        self.rng = rng
+        self.kinematics = ArmKinematics("right")
+        self.robot = RobotCollision(self.kinematics, ArmGeometry())
+
+    # -- collision ------------------------------------------------------------------------------
+    def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> Free:
+        """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
+        ``obstacles`` (each object's uncertainty samples as one convex hull, or with ``exact``
+        every sample: for the hand moving away from an object it has just placed)."""
+        world = CollisionWorld.around(self.surface, obstacles if exact else obstacles.hulled())
+        free = CollisionChecker(world, self.robot).checker(hand)
+
+        def counted(q: np.ndarray) -> bool:
+            self.stats.collision_checks += 1
+            return free(q)
+
+        return counted
+
+    def motion_free(self, segments: Iterable[Segment], obstacles: Volume) -> bool:
+        """Whether every segment is clear of ``obstacles``, checked every `ARM_CHECK_STEP`."""
+        for s in segments:
+            free = self.free_check(obstacles, s.hand)
+            if not all(free(q) for q in interpolate(s.path, ARM_CHECK_STEP)):
+                return False
+        return True
+
+    def volume(self, trajectory: Trajectory) -> Volume:
+        """Volume(robot, tau), sampled every `ARM_CHECK_STEP`."""
+        return Volume.of_trajectory(self.robot, trajectory, ARM_CHECK_STEP)
+
+    # -- inverse kinematics ---------------------------------------------------------------------
+    def solve(self, target: np.ndarray, accept: Free) -> np.ndarray | None:
+        """A collision-free configuration putting the TCP at ``target`` (4x4), or None."""
+        with self.stats.timed("ik"):
+            return self.kinematics.solve_ik(
+                target, hm.RIGHT_ARM_HOME, self.rng, accept=accept, max_restarts=IK_RESTARTS
+            )
+
+    def straight(self, q_start: np.ndarray, target: np.ndarray, accept: Free) -> np.ndarray | None:
+        """Straight TCP line from q_start to target (4x4), waypoints every WAYPOINT_SPACING."""
+        distance = float(np.linalg.norm(target[:3, 3] - self.kinematics.fk_tcp(q_start)[:3, 3]))
+        n = max(2, math.ceil(distance / WAYPOINT_SPACING) + 1)
+        with self.stats.timed("ik"):
+            return self.kinematics.cartesian_path(q_start, target, n, accept=accept)
+
+    # -- GoTo ------------------------------------------------------------------------------------
+    def goto(
+        self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
+    ) -> tuple[np.ndarray | None, str]:
+        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself)."""
+        return self.plan_path(start, goal, self.free_check(obstacles, hand))
+
+    def plan_path(
+        self,
+        start: np.ndarray,
+        goal: np.ndarray,
+        free: Free,
+        constraint: JointConstraint | None = None,
+    ) -> tuple[np.ndarray | None, str]:
+        """`plan_goto` within this plan's budget and seed: (path or None, reason)."""
+        self.budget.check()
+        with self.stats.timed("goto"):
+            result = plan_goto(
+                start,
+                goal,
+                free,
+                self.kinematics.lower,
+                self.kinematics.upper,
+                time_budget=max(self.budget.remaining(), 1e-3),
+                seed=self.settings.seed,
+                resolution=ARM_CHECK_STEP,
+                constraint=constraint,
+                max_evaluations=self.settings.goto_evaluations,
+            )
+        return result.path, result.reason

@@ -1,0 +1,65 @@
+"""G: which final states of an object are acceptable (the goal argument of every action)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from planners.actions.context import PlanningContext
+
+
+class Goal(Protocol):
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool: ...
+
+    def describe(self) -> str: ...
+
+
+@dataclass(frozen=True)
+class Retrieve:
+    """The goal object's G: grasped with every sample in the hand (then lifted or pulled out)."""
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        return held
+
+    def describe(self) -> str:
+        return "in the hand"
+
+
+@dataclass(frozen=True)
+class AwayFrom:
+    """StablePoses(o) - NGR: standing on the surface, clear of the negative goal region."""
+
+    ngr: Volume
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        if held or not ctx.stable(name, final):
+            return False
+        near = self._near(ctx, name, final)
+        if not near.any():
+            return True
+        spec = ctx.beliefs[name].spec
+        placed = Volume.of_object(name, spec, final[near], ctx.surface.top_z)
+        # The hull of the poses near the NGR contains them all: clear hull, clear poses. One
+        # convex shape is far cheaper for the broad phase than a hundred overlapping boxes.
+        if not placed.hulled().intersects(self.ngr):
+            return True
+        return not placed.intersects(self.ngr)
+
+    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
+        """A quick sufficient test: stable, and every pose's bounding square clears the NGR
+        in the top-view map (no exact geometry)."""
+        return ctx.stable(name, final) and not self._near(ctx, name, final).any()
+
+    def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
+        spec = ctx.beliefs[name].spec
+        r = spec.footprint.bounding_radius
+        boxes = np.column_stack(
+            [final[:, 0] - r, final[:, 0] + r, final[:, 1] - r, final[:, 1] + r]
+        )
+        return self.ngr.lowest_over(boxes) <= ctx.surface.top_z + spec.height
+
+    def describe(self) -> str:
+        return "out of the negative goal region"

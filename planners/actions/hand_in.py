@@ -1,0 +1,206 @@
+"""The hand moving straight in at grasp height, and what a grasp does after it: PickUp (close,
+then lift, or on the shelf lift slightly and pull into the goal strip) or release (open flat and
+back away, leaving a pushed obstacle where the capture region put it). Push-grasps and static
+grasps share these; pick-and-place (`planners.actions.pick_and_place`) has its own finish."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.trajectory import Segment, Trajectory
+from planners.actions.arm import Arm, Free
+from planners.actions.context import PlanningContext
+from planners.actions.goals import Goal
+from planners.actions.grasp_geometry import (
+    GRASP_CLOSURE,
+    LIFT,
+    OPEN_FLAT,
+    grasp_height,
+    hand_pose,
+    rise_height,
+)
+from planners.actions.results import ActionResult, Failure
+from planners.goto import upright_hand
+from planners.hand2d import PushGraspProfile
+
+NU_SPACING = 0.02  # m of push between stored stages of nu_o
+RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
+SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
+
+
+@dataclass(frozen=True)
+class HandIn:
+    """A feasible straight motion of the hand and the object's evolution nu_o during it."""
+
+    push: Segment
+    q_end: np.ndarray
+    end_xy: np.ndarray
+    heading: float
+    z: float  # TCP height
+    nu: np.ndarray  # (stages, M, 3)
+
+
+def hand_in(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    action: str,
+    avoid: Volume,
+    line: tuple[np.ndarray, np.ndarray],
+    heading: float,
+    profile: PushGraspProfile,
+    evolve: Callable[[], np.ndarray],
+) -> HandIn | Failure:
+    """The hand moves straight in at grasp height from ``line[0]`` to ``line[1]`` (hand_base
+    positions) while the object's samples go through ``evolve()`` (nu_o, computed only once
+    the arm's motion is known to be feasible)."""
+    spec = ctx.beliefs[name].spec
+    start_xy, end_xy = line
+    z = ctx.surface.top_z + grasp_height(spec.height)
+    hand = HandCommand(0.0, profile.closure)
+    free = arm.free_check(avoid, hand)
+    q_end = arm.solve(hand_pose(end_xy, heading, z), free)
+    if q_end is None:
+        return Failure(name, action, "no collision-free IK solution where the hand stops")
+    back = arm.straight(q_end, hand_pose(start_xy, heading, z), free)
+    if back is None:
+        return Failure(name, action, "the straight push is out of reach or hits avoidVol")
+    push = Segment("push", back[::-1].copy(), hand)
+    if not arm.motion_free((push,), avoid):
+        return Failure(name, action, "the arm hits avoidVol during the push")
+    nu = evolve()
+    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
+        return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
+    return HandIn(push, q_end, end_xy, heading, z, nu)
+
+
+def pick_up_or_release(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    moved: HandIn,
+    details: dict[str, float],
+) -> ActionResult | Failure:
+    """PickUp (``action == "pickup"``: close, lift or pull) or release after a hand-in."""
+    held = action == "pickup"
+    nu = moved.nu
+    if not goal.accepts(ctx, name, nu[-1], held):
+        return Failure(name, action, f"the object does not end {goal.describe()}")
+    if held:
+        finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
+        if finish is None:
+            return Failure(name, action, "no collision-free lift or pull out after the grasp")
+        nu = np.concatenate([nu, carried_poses])
+    else:
+        finish = release(ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z,
+                         nu[-1], avoid)  # fmt: skip
+        if finish is None:
+            return Failure(name, action, "no collision-free retreat after the push")
+    return ActionResult(action, name, Trajectory((moved.push, *finish)), nu, held, details)
+
+
+def _retrieve(
+    ctx: PlanningContext, arm: Arm, moved: HandIn, avoid: Volume
+) -> tuple[tuple[Segment, ...] | None, np.ndarray]:
+    """Close the fingers, then lift (table) or lift slightly and pull the object into the
+    goal strip (shelf). Returns the segments and the carried object's poses."""
+    q_end, end_xy, heading, z, in_hand = (
+        moved.q_end,
+        moved.end_xy,
+        moved.heading,
+        moved.z,
+        moved.nu[-1],
+    )
+    closed = HandCommand(0.0, GRASP_CLOSURE)
+    close = Segment("close", q_end[None].copy(), closed)
+    free = arm.free_check(avoid, closed)
+    nothing = np.empty((0, len(in_hand), 3))
+    if ctx.surface.success == "lift":
+        lift = arm.straight(q_end, hand_pose(end_xy, heading, z + LIFT), free)
+        if lift is None:
+            return None, nothing
+        return (close, Segment("lift", lift, closed)), nothing
+    raise_ = arm.straight(q_end, hand_pose(end_xy, heading, z + SHELF_LIFT), free)
+    if raise_ is None:
+        return None, nothing
+    (x0, x1), _ = ctx.goal_region
+    shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), 0.0])
+    target = hand_pose(end_xy + shift, heading, z + SHELF_LIFT)
+    pull = arm.straight(raise_[-1], target, free)
+    if pull is None:
+        # Blocked or out of reach in a straight line: carry the object along any path that
+        # keeps it upright (GoTo on the constraint manifold).
+        pull = carry_upright(arm, raise_[-1], target, free)
+    if pull is None:
+        return None, nothing
+    carried = carried_poses(arm, pull, in_hand)
+    return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
+
+
+def carry_upright(
+    arm: Arm, q_start: np.ndarray, target: np.ndarray, free: Free
+) -> np.ndarray | None:
+    """GoTo with a grasped object kept upright (the hand's finger plane horizontal)."""
+    q_goal = arm.solve(target, free)
+    if q_goal is None:
+        return None
+    path, _ = arm.plan_path(q_start, q_goal, free, upright_hand(arm.kinematics))
+    return path
+
+
+def carried_poses(arm: Arm, path: np.ndarray, in_hand: np.ndarray) -> np.ndarray:
+    """Object sample poses (S, N, 3) along a carrying path: rigidly attached to the TCP in the
+    plane (the hand stays level), every NU_SPACING of TCP travel."""
+    tcps = arm.kinematics.fk_tcp_batch(path)
+    xy, yaw = tcps[:, :2, 3], np.arctan2(tcps[:, 1, 2], tcps[:, 0, 2])
+    travel = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
+    marks = np.arange(NU_SPACING, travel[-1] + NU_SPACING, NU_SPACING).clip(max=travel[-1])
+    rows = np.unique(np.searchsorted(travel, marks).clip(max=len(path) - 1))
+    stages = []
+    for k in rows:
+        turn = yaw[k] - yaw[0]
+        c, s = math.cos(turn), math.sin(turn)
+        rel = in_hand[:, :2] - xy[0]
+        moved = xy[k] + rel @ np.array([[c, s], [-s, c]])
+        stages.append(np.column_stack([moved, in_hand[:, 2] + turn]))
+    return np.stack(stages) if stages else np.empty((0, len(in_hand), 3))
+
+
+def release(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    q_end: np.ndarray,
+    end_xy: np.ndarray,
+    heading: float,
+    z: float,
+    final: np.ndarray,
+    avoid: Volume,
+) -> tuple[Segment, ...] | None:
+    """Open the hand flat and back away, leaving a pushed (or placed) object where it is."""
+    opened = HandCommand(0.0, OPEN_FLAT)
+    release_ = Segment("release", q_end[None].copy(), opened)
+    v = np.array([math.cos(heading), math.sin(heading)])
+    back_xy = end_xy - RETREAT * v
+    retreat = arm.straight(q_end, hand_pose(back_xy, heading, z), arm.free_check(avoid, opened))
+    if retreat is None:
+        return None
+    spec = ctx.beliefs[name].spec
+    placed = avoid + Volume.of_object(name, spec, final, ctx.surface.top_z)
+    rise = arm.straight(
+        retreat[-1],
+        hand_pose(back_xy, heading, rise_height(ctx.surface.top_z, spec.height, z)),
+        arm.free_check(placed, opened, exact=True),
+    )
+    if rise is None:
+        return None
+    return (release_, Segment("retreat", retreat, opened), Segment("rise", rise, opened))

@@ -1,0 +1,87 @@
+"""The order in which actions try their candidates (§2.2.6): directions that hit the fewest
+other objects first, then the most natural for the arm."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from planners.actions.context import PlanningContext
+
+
+def corridor_hits(
+    ctx: PlanningContext, name: str, start: np.ndarray, end: np.ndarray, width: float
+) -> int:
+    """Objects other than ``name`` whose U overlaps a box swept from start to end (2D) at the
+    hand's height: the paper's count of objects hit when the hand turns around the object."""
+    delta = end - start
+    length = float(np.linalg.norm(delta))
+    if length < 1e-9:
+        return 0
+    yaw = math.atan2(delta[1], delta[0])
+    centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
+    corridor = Volume.of_box("corridor", centre, (length, width, 0.12), yaw)
+    hits = 0
+    for other in ctx.beliefs:
+        if other != name and corridor.intersects(ctx.uncertainty_volume(other)):
+            hits += 1
+    return hits
+
+
+def base_heading(shoulder: np.ndarray, xy: np.ndarray) -> float:
+    """Yaw of the line from the right shoulder to a point: the arm's most comfortable push."""
+    d = xy - shoulder[:2]
+    return math.atan2(d[1], d[0])
+
+
+def headings(ctx: PlanningContext, base: float, step_deg: float) -> list[float]:
+    """Headings every ``step_deg`` within ``max_heading_deg`` of ``base``."""
+    step = math.radians(step_deg)
+    limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+    count = int(limit // step)
+    return [base + k * step for k in range(-count, count + 1)]
+
+
+def push_headings(
+    ctx: PlanningContext, shoulder: np.ndarray, name: str, reach: float
+) -> list[float]:
+    """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in and by
+    the object and fingers on their way on, then closest to the shoulder-object line."""
+    centre = ctx.beliefs[name].samples[0, :2]
+    base = base_heading(shoulder, centre)
+    radius = ctx.beliefs[name].spec.footprint.bounding_radius
+    scored = []
+    for h in headings(ctx, base, ctx.settings.heading_step_deg):
+        v = np.array([math.cos(h), math.sin(h)])
+        hits = corridor_hits(ctx, name, centre - (radius + 0.30) * v, centre, 2 * reach)
+        # Where the object and the fingers go: pushing it into others is as bad.
+        hits += corridor_hits(ctx, name, centre, centre + (radius + 0.15) * v, 2 * reach)
+        scored.append((hits, abs(h - base), h))
+    return [h for _, _, h in sorted(scored)]
+
+
+def sweep_directions(
+    ctx: PlanningContext, shoulder: np.ndarray, name: str
+) -> list[tuple[float, int]]:
+    """(sweep direction, handedness) pairs whose hand approach is within reach, ordered by the
+    objects the swept object would run into, then by how natural the approach is."""
+    belief = ctx.beliefs[name]
+    centre = belief.samples[0, :2]
+    base = base_heading(shoulder, centre)
+    radius = belief.spec.footprint.bounding_radius
+    limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+    scored = []
+    step = math.radians(ctx.settings.sweep_step_deg)
+    for k in range(round(2 * math.pi / step)):
+        angle = k * step
+        for handedness in (1, -1):
+            approach = angle + handedness * math.pi / 2
+            off = abs(math.remainder(approach - base, 2 * math.pi))
+            if off > limit:
+                continue
+            v = np.array([math.cos(angle), math.sin(angle)])
+            hits = corridor_hits(ctx, name, centre + radius * v, centre + 0.30 * v, 2 * radius)
+            scored.append((hits, off, angle, handedness))
+    return [(a, h) for _, _, a, h in sorted(scored)]

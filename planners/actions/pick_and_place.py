@@ -1,0 +1,110 @@
+"""Pick-and-place of an obstacle (the baseline's way of moving things, §3.2.1): after a static
+grasp, close, lift `CARRY_LIFT`, carry level to the nearest placement out of the NGR that stands
+clear of every other object, lower, open and back away. The carried object's volume is part of
+the action's volume."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.trajectory import Segment, Trajectory
+from planners.actions.arm import Arm
+from planners.actions.context import PlanningContext
+from planners.actions.goals import Goal
+from planners.actions.grasp_geometry import GRASP_CLOSURE, hand_pose, translated
+from planners.actions.hand_in import HandIn, release
+from planners.actions.results import ActionResult, Failure
+
+ACTION = "pick-and-place"
+CARRY_LIFT = 0.15  # m: the object is carried this far above where it stood
+PLACEMENT_SPACING = 0.05  # m between candidate placements and between carried-volume poses
+PLACEMENT_TRIES = 6  # placements in G tried per grasp, nearest first
+
+
+def place(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    moved: HandIn,
+    details: dict[str, float],
+) -> ActionResult | Failure:
+    """Carry the grasped obstacle to a placement in G; nu_o is (U(o), where it is put down)."""
+    spec = ctx.beliefs[name].spec
+    q_grasp, grasp_xy, heading, z, in_hand = (
+        moved.q_end, moved.end_xy, moved.heading, moved.z, moved.nu[-1]
+    )  # fmt: skip
+    closed = HandCommand(0.0, GRASP_CLOSURE)
+    free = arm.free_check(avoid, closed)
+    lifted = arm.straight(q_grasp, hand_pose(grasp_xy, heading, z + CARRY_LIFT), free)
+    if lifted is None:
+        return Failure(name, ACTION, "no collision-free lift after the grasp")
+    others = ctx.objects_volume(set(ctx.beliefs) - {name})
+    tried = 0
+    for shift in _placements(ctx, in_hand[0, :2]):
+        placed = translated(in_hand, shift)
+        if not goal.accepts(ctx, name, placed, False):
+            continue
+        if Volume.of_object(name, spec, placed, ctx.surface.top_z).intersects(others):
+            continue
+        tried += 1
+        if tried > PLACEMENT_TRIES:
+            break
+        ctx.check_budget()
+        place_xy = grasp_xy + shift
+        carry = arm.straight(lifted[-1], hand_pose(place_xy, heading, z + CARRY_LIFT), free)
+        if carry is None:
+            continue
+        lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z), free)
+        if lower is None:
+            continue
+        carried = _carried_volume(ctx, name, in_hand, shift)
+        if carried.intersects(avoid):
+            continue
+        finish = release(ctx, arm, name, lower[-1], place_xy, heading, z, placed, avoid)
+        if finish is None:
+            continue
+        segments = (
+            moved.push,
+            Segment("close", q_grasp[None].copy(), closed),
+            Segment("lift", lifted, closed),
+            Segment("carry", carry, closed),
+            Segment("lower", lower, closed),
+            *finish,
+        )
+        nu = np.stack([moved.nu[0], placed])
+        return ActionResult(ACTION, name, Trajectory(segments), nu, False, details, carried)
+    return Failure(name, ACTION, "no reachable placement out of the NGR")
+
+
+def _placements(ctx: PlanningContext, centre: np.ndarray) -> list[np.ndarray]:
+    """Shifts from ``centre`` to points of a PLACEMENT_SPACING grid over the surface, nearest
+    first (a short carry is a short, reachable motion)."""
+    x0, x1, y0, y1 = ctx.surface.bounds
+    xs = np.arange(x0, x1, PLACEMENT_SPACING) + PLACEMENT_SPACING / 2
+    ys = np.arange(y0, y1, PLACEMENT_SPACING) + PLACEMENT_SPACING / 2
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2) - centre
+    order = np.argsort(np.linalg.norm(grid, axis=1), kind="stable")
+    return [grid[i] for i in order if np.linalg.norm(grid[i]) > PLACEMENT_SPACING / 2]
+
+
+def _carried_volume(
+    ctx: PlanningContext, name: str, in_hand: np.ndarray, shift: np.ndarray
+) -> Volume:
+    """The held object's samples raised over the pick-up spot, carried level at CARRY_LIFT
+    and lowered over the placement, every PLACEMENT_SPACING."""
+    spec = ctx.beliefs[name].spec
+    top = ctx.surface.top_z
+    total = Volume()
+    for z in np.arange(spec.height, CARRY_LIFT + 1e-9, spec.height):
+        for poses in (in_hand, translated(in_hand, shift)):
+            total += Volume.of_object(name, spec, poses, top + float(z))
+    steps = max(2, math.ceil(float(np.linalg.norm(shift)) / PLACEMENT_SPACING) + 1)
+    for f in np.linspace(0.0, 1.0, steps):
+        total += Volume.of_object(name, spec, translated(in_hand, f * shift), top + CARRY_LIFT)
+    return total

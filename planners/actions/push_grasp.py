@@ -1,0 +1,130 @@
+"""Push-grasp (§2.2) and PickUp of the goal object.
+
+A push-grasp is a straight push of the horizontal hand at grasp height that the capture region
+guarantees ends with every uncertainty sample between the fingers. It is searched over the
+direction v (ordered by §2.2.6's heuristic), the aperture and the lateral offset. For the goal
+object it is PickUp: close and lift (table) or close and pull into the goal strip (shelf). For an
+obstacle the hand opens flat and backs away: the object stays where the capture region put it,
+inside the hand's pocket.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.transforms import Frame2D
+from planners.actions.arm import Arm
+from planners.actions.context import PlanningContext
+from planners.actions.goals import Goal, Retrieve
+from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
+from planners.actions.hand_in import NU_SPACING, hand_in, pick_up_or_release
+from planners.actions.heuristics import push_headings
+from planners.actions.results import ActionResult, Failure, Outcome, unfit
+from planners.actions.static_grasp import static_grasp
+from planners.capture import extreme_parameters, push_grasp_apertures
+from planners.hand2d import push_grasp_profile
+
+PUSH_MARGIN = 0.01  # m pushed beyond the capture region's requirement
+NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
+MISSES_SAMPLES = "the capture region misses some uncertainty samples"
+
+
+def push_grasp(
+    ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
+) -> Iterator[Outcome]:
+    """Push-grasps of ``name`` (PickUp when G is `Retrieve`), best heading first; then, for
+    the goal, the static grasps of its TSR (a push-grasp with no push, d = 0: §3.1.2)."""
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    action = "pickup" if isinstance(goal, Retrieve) else "push-grasp"
+    why = unfit(spec, pushed=True, lifted=action == "pickup")
+    if why:
+        yield Failure(name, action, why)
+        return
+    # The goal is grasped from the widest preshape first: closing from a narrow one pops a
+    # tall bottle up out of the hand in simulation (the Table 1 suite at sigma1).
+    apertures = sorted(push_grasp_apertures(spec.footprint), reverse=action == "pickup")
+    reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
+    found = 0
+    for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach):
+        for aperture in apertures:
+            result: Outcome | None = None
+            for offset in ctx.settings.offsets:
+                ctx.check_budget()
+                ctx.stats.actions_tried += 1
+                result = _push_grasp_at(
+                    ctx, arm, name, goal, avoid, action, heading, aperture, offset
+                )
+                if isinstance(result, Failure):
+                    yield result
+                if not (isinstance(result, Failure) and result.reason == MISSES_SAMPLES):
+                    break  # offsets shift the hand by a centimetre: they only help the capture
+            if not isinstance(result, ActionResult):
+                continue
+            yield result
+            found += 1
+            if found >= ctx.settings.candidates_per_action:
+                return
+            break  # the next candidate pushes from another direction
+    if action == "pickup":
+        for outcome in static_grasp(ctx, arm, name, goal, avoid):
+            yield outcome
+            if isinstance(outcome, ActionResult):
+                found += 1
+                if found >= ctx.settings.candidates_per_action:
+                    return
+
+
+def _push_grasp_at(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+    offset: float,
+) -> Outcome:
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    region = ctx.push_region(spec.footprint, aperture)
+    profile = push_grasp_profile(aperture)
+    v = np.array([math.cos(heading), math.sin(heading)])
+    normal = np.array([-v[1], v[0]])
+    centre = belief.samples[0, :2] + offset * normal
+    local = Frame2D((float(centre[0]), float(centre[1])), heading).to_frame(belief.samples)
+    x_front = profile.pusher.bounds[1]
+    back_off = near_edge(spec.footprint, local) - x_front - START_CLEARANCE
+    start_xy = centre + back_off * v
+    frame = Frame2D((float(start_xy[0]), float(start_xy[1])), heading)
+    in_hand = frame.to_frame(belief.samples)
+    with ctx.stats.timed("capture"):
+        inside, need = region.query(in_hand)
+    if not inside.all():
+        return Failure(name, action, MISSES_SAMPLES)
+    distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
+
+    def evolve() -> np.ndarray:
+        stages = max(1, math.ceil(distance / NU_SPACING))
+        with ctx.stats.timed("nu"):
+            advances = np.linspace(0.0, distance, stages + 1)
+            chosen = extreme_parameters(region.mus, region.cs)
+            nu_hand = region.evolve(in_hand, distance, stages, NU_STEP, chosen)
+            return frame.moving_to_world(nu_hand, advances)
+
+    details = {
+        "heading_deg": math.degrees(heading),
+        "aperture_m": aperture,
+        "offset_m": offset,
+        "push_m": distance,
+    }
+    end_xy = start_xy + distance * v
+    moved = hand_in(ctx, arm, name, action, avoid, (start_xy, end_xy), heading, profile, evolve)
+    if isinstance(moved, Failure):
+        return moved
+    return pick_up_or_release(ctx, arm, name, goal, avoid, action, moved, details)

@@ -1,0 +1,99 @@
+"""The planner's resolution, budgets and statistics (the paper's "user defined step sizes",
+§2.2.6)."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import defaultdict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Search resolution and budgets."""
+
+    time_budget: float = 20.0  # s for the whole plan
+    # Evaluations per GoTo request (collision checks; with a constraint, also its Jacobians):
+    # about 1 s here, and a count, not seconds, so that plans do not depend on the machine's load.
+    goto_evaluations: int = 5000
+    heading_step_deg: float = 15.0
+    max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
+    offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
+    sweep_max: float = 0.55  # m
+    sweep_step_deg: float = 30.0
+    candidates_per_action: int = 3
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("goto_evaluations", "heading_step_deg", "sweep_max", "sweep_step_deg"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
+        if not (math.isfinite(self.time_budget) and self.time_budget >= 0):
+            raise ValueError(f"PlannerSettings.time_budget: {self.time_budget!r}; must be >= 0")
+        if self.candidates_per_action < 1:
+            raise ValueError(
+                f"PlannerSettings.candidates_per_action: {self.candidates_per_action}; must be >= 1"
+            )
+
+
+@dataclass(frozen=True)
+class StatsRecord:
+    """A plan's statistics as they are reported (JSON: `dataclasses.asdict`)."""
+
+    planning_steps: int
+    actions_tried: int
+    collision_checks: int
+    seconds: dict[str, float]
+
+
+@dataclass
+class PlanStats:
+    """What planning cost: steps (recursive calls), candidates tried, checks, time by part."""
+
+    planning_steps: int = 0
+    actions_tried: int = 0
+    collision_checks: int = 0
+    seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+
+    @contextmanager
+    def timed(self, part: str) -> Iterator[None]:
+        """Add the block's wall-clock time to ``seconds[part]``."""
+        began = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[part] += time.perf_counter() - began
+
+    def record(self) -> StatsRecord:
+        return StatsRecord(
+            self.planning_steps,
+            self.actions_tried,
+            self.collision_checks,
+            {k: round(v, 4) for k, v in sorted(self.seconds.items())},
+        )
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self.record())
+
+
+class BudgetExceeded(Exception):
+    """The plan's time budget ran out."""
+
+
+class Budget:
+    """The plan's wall-clock budget (the only one in seconds; GoTo is bounded by counts)."""
+
+    def __init__(self, seconds: float) -> None:
+        self.deadline = time.perf_counter() + seconds
+
+    def remaining(self) -> float:
+        return self.deadline - time.perf_counter()
+
+    def check(self) -> None:
+        """Raise BudgetExceeded once the budget is spent."""
+        if self.remaining() <= 0:
+            raise BudgetExceeded

@@ -1,0 +1,115 @@
+"""Static grasps: hand poses drawn from the object's task space region (TSR) that grasp every
+uncertainty sample as it stands, without pushing. PickUp for the goal object (the uncertainty
+TSR baseline, and the d = 0 push-grasps of the pushing planner); an obstacle is picked up,
+carried out of the NGR and put down (pick-and-place, §3.2.1)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from planners.actions.arm import Arm
+from planners.actions.context import PlanningContext
+from planners.actions.goals import Goal, Retrieve
+from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
+from planners.actions.hand_in import hand_in, pick_up_or_release
+from planners.actions.heuristics import base_heading, push_headings
+from planners.actions.pick_and_place import place
+from planners.actions.results import ActionResult, Failure, Outcome, unfit
+from planners.capture import push_grasp_apertures
+from planners.hand2d import push_grasp_profile
+from planners.tsr import GraspTSR, grasps_every_sample
+
+TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
+TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
+TSR_IK_TRIES = 12  # static-grasp poses tried with IK and motions per aperture
+TSR_SPREAD = math.radians(4.0)  # rad between the headings of the poses tried
+
+
+def static_grasp(
+    ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
+) -> Iterator[Outcome]:
+    """Static grasps of ``name``, most centred first, from the §2.2.6 order of directions."""
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    action = "pickup" if isinstance(goal, Retrieve) else "pick-and-place"
+    why = unfit(spec, pushed=False, lifted=True)
+    if why:
+        yield Failure(name, action, why)
+        return
+    centre = belief.samples[0, :2]
+    base = base_heading(arm.kinematics.shoulder, centre)
+    limit = math.radians(ctx.settings.max_heading_deg)
+
+    def still() -> np.ndarray:
+        """nu_o of a static grasp: the samples stay where they are until the fingers close."""
+        return np.stack([belief.samples, belief.samples])
+
+    found: list[float] = []
+    for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
+        ctx.check_budget()
+        region = ctx.push_region(spec.footprint, aperture)
+        profile = push_grasp_profile(aperture)
+        tsr = GraspTSR(
+            (float(centre[0]), float(centre[1])),
+            (base - limit, base + limit),
+            (-profile.half_gap, profile.half_gap),
+            (profile.grasp_line - TSR_DEPTH, profile.grasp_line),
+        )
+        draws = tsr.sample(ctx.rng, TSR_DRAWS)
+        with ctx.stats.timed("capture"):
+            draws = draws[grasps_every_sample(region, tsr, draws, belief.samples)]
+        if not len(draws):
+            yield Failure(name, action, "no hand pose in the TSR grasps every uncertainty sample")
+            continue
+        # §2.2.6's order of the push directions (objects hit on the way in first), then the
+        # most centred between the fingers.
+        ranked = np.array(
+            push_headings(ctx, arm.kinematics.shoulder, name, profile.pusher.bounds[3])
+        )
+        rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
+        draws = draws[np.lexsort((np.abs(draws[:, 1]), rank))]
+        tried: list[float] = []
+        for heading, lateral, depth in draws:
+            if len(tried) >= TSR_IK_TRIES:
+                break
+            near_found = any(
+                abs(heading - h) < math.radians(ctx.settings.heading_step_deg) for h in found
+            )
+            near_tried = any(abs(heading - h) < TSR_SPREAD for h in tried)
+            if near_found or near_tried:
+                continue  # a pose from nearly the same direction fails (or works) the same way
+            ctx.check_budget()
+            ctx.stats.actions_tried += 1
+            tried.append(float(heading))
+            frame = tsr.hand_frame(heading, lateral, depth)
+            end_xy = np.asarray(frame.origin)
+            back = (
+                profile.pusher.bounds[1]
+                + START_CLEARANCE
+                - near_edge(spec.footprint, frame.to_frame(belief.samples))
+            )
+            start_xy = end_xy - max(back, START_CLEARANCE) * frame.x_axis
+            details = {
+                "heading_deg": math.degrees(heading),
+                "aperture_m": aperture,
+                "lateral_m": lateral,
+                "depth_m": depth,
+            }
+            line = (start_xy, end_xy)
+            moved = hand_in(ctx, arm, name, action, avoid, line, heading, profile, still)
+            if isinstance(moved, Failure):
+                yield moved
+                continue
+            if action == "pick-and-place":
+                result = place(ctx, arm, name, goal, avoid, moved, details)
+            else:
+                result = pick_up_or_release(ctx, arm, name, goal, avoid, action, moved, details)
+            yield result
+            if isinstance(result, ActionResult):
+                found.append(float(heading))
+                if len(found) >= ctx.settings.candidates_per_action:
+                    return

@@ -1,0 +1,322 @@
+"""Sweep (§2.1.6, Fig. 7): the outer side of the hand pushes an obstacle sideways, far enough
+that every sample of nu_o[1] leaves the negative goal region, guarded by the sweep capture
+region (the object stays against the hand's side for the whole sweep)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.trajectory import Segment, Trajectory
+from clutter_gym.model.transforms import Frame2D
+from planners.actions.arm import Arm, Free
+from planners.actions.context import PlanningContext
+from planners.actions.goals import AwayFrom, Goal
+from planners.actions.grasp_geometry import (
+    START_CLEARANCE,
+    grasp_height,
+    hand_pose,
+    near_edge,
+    rise_height,
+    translated,
+)
+from planners.actions.hand_in import NU_SPACING
+from planners.actions.heuristics import sweep_directions
+from planners.actions.results import ActionResult, Failure, Outcome
+from planners.capture import SweepRegion, extreme_parameters
+from planners.hand2d import closure_for_aperture, sweep_profile
+
+ACTION = "sweep"
+NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
+PILOT_STEP = 0.01  # m: simulation step of the one-sample pilot of a sweep
+SWEEP_CHUNK = 0.06  # m of sweep simulated before checking whether the object has reached G
+SWEEP_RETREAT = 0.02  # m the hand backs away along the sweep before rising
+_NOT_FAR_ENOUGH = "no sweep up to {} m ends {}"
+SWEEP_PLACEMENTS = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9)
+"""Where the object's centre meets the hand's side, as fractions from the wrist end to the
+fingertip, most central first."""
+
+
+def sweep(
+    ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
+) -> Iterator[Outcome]:
+    """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first."""
+    if not isinstance(goal, AwayFrom):
+        return
+    if not ctx.beliefs[name].spec.pushable:
+        yield Failure(name, ACTION, "tips over when pushed")
+        return
+    found = 0
+    for angle, handedness in sweep_directions(ctx, arm.kinematics.shoulder, name):
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        for outcome in _sweep_at(ctx, arm, name, goal, avoid, angle, handedness):
+            yield outcome
+            if isinstance(outcome, ActionResult):
+                found += 1
+                if found >= ctx.settings.candidates_per_action:
+                    return
+
+
+@dataclass(frozen=True)
+class _Sweep:
+    """One sweep direction and side of the hand, and the object's samples in its frame."""
+
+    region: SweepRegion
+    angle: float  # world yaw of the sweep
+    handedness: int
+    approach: float  # world yaw of the hand's approach axis
+    z: float  # TCP height
+    centre: tuple[float, float]  # the detected pose
+    local: np.ndarray  # the samples in the frame at the centre
+    x0: float  # where the hand's side starts, in that frame
+    span: tuple[float, float]  # the hand's side, from the wrist end to the fingertip
+
+    @property
+    def frame(self) -> Frame2D:
+        return Frame2D(self.centre, self.angle, self.handedness)
+
+
+def _sweep_at(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: AwayFrom,
+    avoid: Volume,
+    angle: float,
+    handedness: int,
+) -> Iterator[Outcome]:
+    """At most one sweep in this direction (and the failures on the way)."""
+    plan = _plan_sweep(ctx, name, angle, handedness)
+    guess = _first_guess(ctx, name, goal, plan)
+    if guess is None:
+        yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
+        return
+    hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
+    free = arm.free_check(avoid, hand)
+    placement = None
+    for fraction in SWEEP_PLACEMENTS:
+        outcome = _placement(ctx, arm, name, plan, fraction, guess, free)
+        if isinstance(outcome, Failure):
+            yield outcome
+            continue
+        placement = outcome
+        break
+    if placement is None:
+        return
+    frame, in_frame = placement
+    with ctx.stats.timed("nu"):
+        swept = _simulate(ctx, name, goal, plan.region, frame, in_frame)
+    if swept is None:
+        yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
+        return
+    yield _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, *swept)
+
+
+def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) -> _Sweep:
+    belief = ctx.beliefs[name]
+    spec = belief.spec
+    region = ctx.sweep_region(spec.footprint)
+    profile = sweep_profile(region.aperture)
+    centre = (float(belief.samples[0, 0]), float(belief.samples[0, 1]))
+    local = Frame2D(centre, angle, handedness).to_frame(belief.samples)
+    x_front = profile.pusher.bounds[1]
+    return _Sweep(
+        region=region,
+        angle=angle,
+        handedness=handedness,
+        approach=angle + handedness * math.pi / 2,
+        z=ctx.surface.top_z + grasp_height(spec.height),
+        centre=centre,
+        local=local,
+        x0=near_edge(spec.footprint, local) - x_front - START_CLEARANCE,
+        span=profile.span,
+    )
+
+
+def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
+    """A rigid translation along the sweep is a cheap first guess of how far to sweep (the
+    simulated evolution decides); it does not depend on where along the hand."""
+    samples = ctx.beliefs[name].samples
+    direction = plan.frame.x_axis
+    gap = START_CLEARANCE
+    return next(
+        (
+            gap + d
+            for d in np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
+            if goal.clearly_accepts(ctx, name, translated(samples, d * direction))
+        ),
+        None,
+    )
+
+
+def _placement(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    plan: _Sweep,
+    fraction: float,
+    guess: float,
+    free: Free,
+) -> tuple[Frame2D, np.ndarray] | Failure:
+    """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
+    capture region holds every sample and the arm reaches the start and the guessed end."""
+    lo, hi = plan.span
+    y0 = plan.local[:, 1].mean() - (lo + fraction * (hi - lo))
+    origin = plan.frame.to_world(np.array([plan.x0, y0, 0.0]))
+    frame = Frame2D((float(origin[0]), float(origin[1])), plan.angle, plan.handedness)
+    in_frame = frame.to_frame(ctx.beliefs[name].samples)
+    with ctx.stats.timed("capture"):
+        captured = bool(plan.region.query(in_frame, float(guess))[0].all())
+    if not captured:
+        return Failure(name, ACTION, "the sweep capture region misses some uncertainty samples")
+    start_xy = np.asarray(frame.origin)
+    # Reachable and clear where it starts and where the guess ends, before paying for the
+    # simulated evolution; another placement along the hand may clear what this hits.
+    if arm.solve(hand_pose(start_xy, plan.approach, plan.z), free) is None:
+        return Failure(name, ACTION, "no collision-free IK solution at the start of the sweep")
+    end_xy = start_xy + guess * frame.x_axis
+    if arm.solve(hand_pose(end_xy, plan.approach, plan.z), free) is None:
+        return Failure(name, ACTION, "no collision-free IK solution at the end of the sweep")
+    return frame, in_frame
+
+
+def _simulate(
+    ctx: PlanningContext,
+    name: str,
+    goal: AwayFrom,
+    region: SweepRegion,
+    frame: Frame2D,
+    in_frame: np.ndarray,
+) -> tuple[float, np.ndarray] | None:
+    """How far to sweep and nu_o: a pilot with the detected pose alone (a thirtieth of the
+    work) says whether and roughly where the sweep reaches G; only then are all samples
+    simulated, near there."""
+    limit = ctx.settings.sweep_max
+    pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
+    if pilot is None:
+        return None
+    return _sweep_until(
+        ctx,
+        name,
+        goal,
+        region,
+        frame,
+        in_frame,
+        min(limit, pilot[0] + SWEEP_CHUNK),
+        check_from=pilot[0] - SWEEP_CHUNK,
+    )
+
+
+def _sweep_motion(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    plan: _Sweep,
+    frame: Frame2D,
+    hand: HandCommand,
+    free: Free,
+    distance: float,
+    nu: np.ndarray,
+) -> Outcome:
+    """The arm's sweep, retreat and rise, checked against avoidVol and the placed object."""
+    spec = ctx.beliefs[name].spec
+    start_xy = np.asarray(frame.origin)
+    end_xy = start_xy + distance * frame.x_axis
+    q_end = arm.solve(hand_pose(end_xy, plan.approach, plan.z), free)
+    if q_end is None:
+        return Failure(name, ACTION, "no collision-free IK solution at the end of the sweep")
+    back = arm.straight(q_end, hand_pose(start_xy, plan.approach, plan.z), free)
+    if back is None:
+        return Failure(name, ACTION, "the straight sweep is out of reach or hits avoidVol")
+    motion = Segment("sweep", back[::-1].copy(), hand)
+    if not arm.motion_free((motion,), avoid):
+        return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
+    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
+        return Failure(name, ACTION, "the object's uncertainty sweeps into avoidVol")
+    placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
+    clear = arm.free_check(placed, hand, exact=True)
+    back_xy = end_xy - SWEEP_RETREAT * frame.x_axis
+    retreat = arm.straight(q_end, hand_pose(back_xy, plan.approach, plan.z), clear)
+    rise = (
+        None
+        if retreat is None
+        else arm.straight(
+            retreat[-1],
+            hand_pose(back_xy, plan.approach, rise_height(ctx.surface.top_z, spec.height, plan.z)),
+            arm.free_check(placed, hand, exact=True),
+        )
+    )
+    if retreat is None or rise is None:
+        return Failure(name, ACTION, "no collision-free retreat after the sweep")
+    details = {
+        "direction_deg": math.degrees(plan.angle),
+        "side": float(plan.handedness),
+        "sweep_m": distance,
+    }
+    segments = (motion, Segment("retreat", retreat, hand), Segment("rise", rise, hand))
+    return ActionResult(ACTION, name, Trajectory(segments), nu, False, details)
+
+
+def _reached(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    region: SweepRegion,
+    in_frame: np.ndarray,
+    distance: float,
+    final: np.ndarray,
+) -> bool:
+    """A sweep of ``distance`` keeps every sample and leaves all of nu_o[1] in G."""
+    inside = region.query(in_frame, distance)[0].all()
+    return bool(inside) and goal.accepts(ctx, name, final, False)
+
+
+def _sweep_until(
+    ctx: PlanningContext,
+    name: str,
+    goal: Goal,
+    region: SweepRegion,
+    frame: Frame2D,
+    in_frame: np.ndarray,
+    limit: float,
+    step: float = NU_STEP,
+    check_from: float = 0.0,
+) -> tuple[float, np.ndarray] | None:
+    """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
+
+    The evolution is simulated a chunk at a time and stops as soon as G is reached: sweeping a
+    box under every (mu_c, c) is the planner's most expensive computation. G is tested from
+    ``check_from`` on (a pilot run tells roughly where it is reached)."""
+    chosen = extreme_parameters(region.mus, region.cs)
+    current: np.ndarray = in_frame
+    stages = [frame.moving_to_world(np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
+    advanced = 0.0
+    while advanced < limit - 1e-9:
+        ctx.check_budget()
+        d = min(SWEEP_CHUNK, limit - advanced)
+        k = max(1, math.ceil(d / NU_SPACING))
+        nu_hand = region.evolve(current, d, k, step, chosen)
+        distances = advanced + np.linspace(0.0, d, k + 1)
+        world = frame.moving_to_world(nu_hand, distances)
+
+        if distances[k] >= check_from and _reached(
+            ctx, name, goal, region, in_frame, float(distances[k]), world[k]
+        ):
+            j = next(
+                j
+                for j in range(1, k + 1)
+                if j == k
+                or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
+            )
+            return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
+        stages.append(world[1:])
+        current = nu_hand[-1]
+        advanced += d
+    return None

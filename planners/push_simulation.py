@@ -1,0 +1,317 @@
+"""A planar pusher (the hand's cross-section) moving through objects: contact detection and the
+quasi-static simulation of many pushes at once (`simulate_push`), on the contact mechanics of
+`planners.pushing`.
+
+Each sample keeps its own clock, so samples far from the pusher jump ahead while only those in
+contact pay for small steps; every step of every sample in contact is solved in one batch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from clutter_gym.model.objects import Footprint
+from clutter_gym.model.transforms import rotation_2d
+from planners.pushing import MAX_CONTACTS, positive, single_contact_twist, solve_contacts
+
+
+# --------------------------------------------------------------------------------------------
+# Pusher geometry and contact detection
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Circle:
+    """A disc of the pusher (a cylindrical fingertip seen from above)."""
+
+    center: tuple[float, float]
+    radius: float
+
+    def __post_init__(self) -> None:
+        positive("Circle.radius", self.radius)
+
+
+@dataclass(frozen=True)
+class ConvexPolygon:
+    """A convex polygon of the pusher, vertices counter-clockwise (a link or a palm face)."""
+
+    vertices: tuple[tuple[float, float], ...]
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.vertices, float)
+        if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
+            raise ValueError(f"ConvexPolygon needs >= 3 vertices (k, 2), got shape {v.shape}")
+        e = np.roll(v, -1, axis=0) - v
+        cross = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
+        if np.any(cross <= 0):
+            raise ValueError("ConvexPolygon vertices must be strictly convex and counter-clockwise")
+
+
+def rectangle(p0: np.ndarray, p1: np.ndarray, half_width: float) -> ConvexPolygon:
+    """The rectangle around segment p0-p1 with the given half-width (a finger link or a plate)."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    side = half_width * np.array([-d[1], d[0]])
+    corners = (p0 - side, p1 - side, p1 + side, p0 + side)
+    return ConvexPolygon(tuple((float(x), float(y)) for x, y in corners))
+
+
+@dataclass(frozen=True)
+class Pusher:
+    """A rigid 2D pusher made of convex shapes; it translates along +x of its own frame."""
+
+    polygons: tuple[ConvexPolygon, ...]
+    circles: tuple[Circle, ...] = ()
+
+    @cached_property
+    def _groups(self) -> list[np.ndarray]:
+        """Polygon vertex arrays stacked by vertex count: one batched distance call per group."""
+        by_k: dict[int, list[np.ndarray]] = {}
+        for p in self.polygons:
+            by_k.setdefault(len(p.vertices), []).append(np.asarray(p.vertices, float))
+        return [np.stack(v) for v in by_k.values()]
+
+    @cached_property
+    def _circle_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        return (
+            np.array([c.center for c in self.circles], float).reshape(-1, 2),
+            np.array([c.radius for c in self.circles], float),
+        )
+
+    @cached_property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the pusher."""
+        centers, radii = self._circle_arrays
+        pts = [np.asarray(p.vertices, float) for p in self.polygons]
+        lo = np.vstack(pts + [centers - radii[:, None]]).min(0)
+        hi = np.vstack(pts + [centers + radii[:, None]]).max(0)
+        return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+    def clearance(self, centers: np.ndarray) -> np.ndarray:
+        """Distance from points (N, 2) to the pusher (negative inside): a free-motion bound."""
+        out = np.full(len(centers), np.inf)
+        for verts in self._groups:
+            d, _, _ = _point_polygon(centers[:, None, :], verts[None])
+            out = np.minimum(out, d.min(1))
+        cc, cr = self._circle_arrays
+        if len(cr):
+            d = np.linalg.norm(centers[:, None, :] - cc[None], axis=-1) - cr[None]
+            out = np.minimum(out, d.min(1))
+        return out
+
+
+def _point_polygon(p: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Signed distance of points to convex polygons (negative inside), the outward unit normal
+    at the nearest boundary point, and that point. p: (..., 2), verts: (..., k, 2) broadcast."""
+    v0 = verts
+    e = np.roll(verts, -1, axis=-2) - v0
+    e2 = (e * e).sum(-1)
+    rel = p[..., None, :] - v0
+    out_n = np.stack([e[..., 1], -e[..., 0]], axis=-1) / np.sqrt(e2)[..., None]
+    side = (rel * out_n).sum(-1)
+    tt = np.clip((rel * e).sum(-1) / e2, 0.0, 1.0)
+    q = v0 + tt[..., None] * e
+    diff = p[..., None, :] - q
+    dist = np.linalg.norm(diff, axis=-1)
+    j_out = np.argmin(dist, axis=-1)
+    j_in = np.argmax(side, axis=-1)
+    inside = side.max(-1) <= 0
+
+    def take(a: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return np.take_along_axis(a, j[..., None, None], axis=-2)[..., 0, :]
+
+    d_out = np.take_along_axis(dist, j_out[..., None], -1)[..., 0]
+    n_out = take(diff, j_out) / np.maximum(d_out, 1e-300)[..., None]
+    n_in = take(np.broadcast_to(out_n, diff.shape), j_in)
+    d_in = side.max(-1)
+    signed = np.where(inside, d_in, d_out)
+    normal = np.where(inside[..., None], n_in, n_out)
+    closest = p - signed[..., None] * normal
+    return signed, normal, closest
+
+
+def box_corners(half_extents: tuple[float, float], poses: np.ndarray) -> np.ndarray:
+    """Corners (N, 4, 2), counter-clockwise, of boxes at poses (N, 3)."""
+    hx, hy = half_extents
+    local = np.array([[hx, -hy], [hx, hy], [-hx, hy], [-hx, -hy]])
+    return poses[:, None, :2] + np.einsum("nij,kj->nki", rotation_2d(poses[:, 2]), local)
+
+
+def contacts(
+    footprint: Footprint, pusher: Pusher, poses: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate contacts between objects at poses (N, 3) and the pusher: gap (N, C), contact
+    point on the object (N, C, 2) and normal pusher -> object (N, C, 2), all in the pusher frame.
+
+    Exact for circles and boxes against convex shapes: a box touches with its corners or is
+    touched by the pusher's corners and discs, which covers face-face contact by its two ends.
+    """
+    gaps, points, normals = [], [], []
+    cc, cr = pusher._circle_arrays
+    if footprint.shape == "circle":
+        radius = footprint.radius
+        center = poses[:, None, :2]
+        for verts in pusher._groups:
+            d, nrm, _ = _point_polygon(center, verts[None])
+            gaps.append(d - radius)
+            normals.append(nrm)
+            points.append(center - radius * nrm)
+        if len(cr):
+            diff = center - cc[None]
+            dist = np.linalg.norm(diff, axis=-1)
+            nrm = diff / np.maximum(dist, 1e-300)[..., None]
+            gaps.append(dist - cr[None] - radius)
+            normals.append(nrm)
+            points.append(center - radius * nrm)
+    else:
+        corners = box_corners(footprint.half_extents, poses)  # (N, 4, 2)
+        for verts in pusher._groups:
+            d, nrm, _ = _point_polygon(corners[:, :, None, :], verts[None, None])  # (N, 4, P)
+            gaps.append(d.reshape(len(poses), -1))
+            normals.append(nrm.reshape(len(poses), -1, 2))
+            points.append(np.repeat(corners, verts.shape[0], axis=1))
+            pv = verts.reshape(-1, 2)
+            d, nrm, closest = _point_polygon(pv[None], corners[:, None])  # (N, V)
+            gaps.append(d)
+            normals.append(-nrm)
+            points.append(closest)
+        if len(cr):
+            d, nrm, closest = _point_polygon(
+                np.broadcast_to(cc, (len(poses), *cc.shape)), corners[:, None]
+            )
+            gaps.append(d - cr[None])
+            normals.append(-nrm)
+            points.append(closest)
+    return np.concatenate(gaps, 1), np.concatenate(points, 1), np.concatenate(normals, 1)
+
+
+# --------------------------------------------------------------------------------------------
+# Simulation
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PushState:
+    """What a watcher sees after each iteration, for the samples still running."""
+
+    ids: np.ndarray  # (n,) sample indices
+    pushed: np.ndarray  # (n,) distance the pusher has moved for each sample
+    poses: np.ndarray  # (n, 3) object poses in the pusher frame
+    touching: np.ndarray  # (n,) a contact was active in this iteration
+    stationary: np.ndarray  # (n,) the object moved rigidly with the pusher (a fixed point)
+
+
+@dataclass(frozen=True)
+class PushResult:
+    poses: np.ndarray  # (N, 3) final poses in the pusher frame
+    pushed: np.ndarray  # (N,) distance pushed when each sample stopped
+    recorded: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))  # (K, N, 3)
+
+
+def simulate_push(
+    footprint: Footprint,
+    pusher: Pusher,
+    poses: np.ndarray,
+    mu: np.ndarray | float,
+    c: np.ndarray | float,
+    distance: float,
+    step: float = 1e-3,
+    watch: Callable[[PushState], np.ndarray] | None = None,
+    record: np.ndarray | None = None,
+) -> PushResult:
+    """Push objects (one per row of ``poses``, pusher frame) by moving the pusher ``distance``
+    along +x in steps of ``step``; mu and c may differ per sample.
+
+    Each sample keeps its own clock: while the object is clear of the pusher it jumps by its
+    clearance (motion is a pure translation in the pusher frame), so only samples in contact pay
+    for 1 mm steps. Samples that can never be touched again (behind or beside the pusher) stop.
+    ``watch(PushState) -> bool mask`` may stop samples early (a capture decided). ``record``:
+    increasing push distances at which to store every sample's pose.
+    """
+    poses = np.array(poses, float).reshape(-1, 3)
+    big_n = len(poses)
+    mu = np.broadcast_to(np.asarray(mu, float), (big_n,)).copy()
+    c = np.broadcast_to(np.asarray(c, float), (big_n,)).copy()
+    if np.any(~(mu > 0)) or np.any(~(c > 0)):
+        raise ValueError("mu and c must be positive")
+    pushed = np.zeros(big_n)
+    checkpoints = np.asarray(record if record is not None else [], float)
+    recorded = np.zeros((len(checkpoints), big_n, 3))
+    next_cp = np.zeros(big_n, dtype=int)
+    bound_r = footprint.bounding_radius
+    x_min, _, y_min, y_max = pusher.bounds
+    margin = 2.0 * step
+    active = np.arange(big_n)
+    while active.size:
+        p = poses[active]
+        s = pushed[active]
+        cp = np.append(checkpoints, np.inf)[next_cp[active]]
+        limit = np.minimum(distance, cp) - s
+        clear = pusher.clearance(p[:, :2]) - bound_r
+        free = clear > margin
+        move = np.where(free, np.minimum(clear - step, limit), np.minimum(step, limit))
+        twist = np.zeros((len(p), 3))
+        touching = np.zeros(len(p), dtype=bool)
+        busy = np.flatnonzero(~free & (move > 0))
+        if busy.size:
+            twist[busy], touching[busy] = _contact_twist(
+                footprint, pusher, p[busy], mu[active[busy]], c[active[busy]], move[busy], margin
+            )
+        rot = rotation_2d(p[:, 2])
+        world = np.einsum("nij,nj->ni", rot, twist[:, :2]) * move[:, None]
+        rel = world - np.stack([move, np.zeros_like(move)], axis=1)
+        dtheta = twist[:, 2] * move
+        stationary = touching & (np.hypot(*rel.T) + bound_r * np.abs(dtheta) < 1e-4 * step)
+        p = p + np.column_stack([rel, dtheta])
+        s = s + move
+        poses[active], pushed[active] = p, s
+        hit = np.isclose(s, cp, rtol=0, atol=1e-12)
+        for k in np.flatnonzero(hit):
+            recorded[next_cp[active[k]], active[k]] = p[k]
+        next_cp[active[hit]] += 1
+        gone = (p[:, 0] + bound_r < x_min - margin) | (p[:, 1] - bound_r > y_max + margin)
+        gone |= p[:, 1] + bound_r < y_min - margin
+        done = (s >= distance - 1e-12) | (gone & (next_cp[active] >= len(checkpoints)))
+        if watch is not None:
+            done |= np.asarray(watch(PushState(active, s, p, touching, stationary)), bool)
+        active = active[~done]
+    return PushResult(poses, pushed, recorded)
+
+
+def _contact_twist(
+    footprint: Footprint,
+    pusher: Pusher,
+    poses: np.ndarray,
+    mu: np.ndarray,
+    c: np.ndarray,
+    move: np.ndarray,
+    margin: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Twists (object frame, per unit push) for samples near the pusher, and whether they touch.
+
+    The gap g of each contact enters as a pusher velocity reduced by g/move along the normal
+    (time-stepping with the gap), so a contact closes exactly and a penetration is pushed out.
+    """
+    gap, point, normal = contacts(footprint, pusher, poses)
+    order = np.argsort(gap, axis=1)[:, :MAX_CONTACTS]
+    gap = np.take_along_axis(gap, order, 1)
+    point = np.take_along_axis(point, order[..., None], 1)
+    normal = np.take_along_axis(normal, order[..., None], 1)
+    count = (gap < margin).sum(1)
+    rot_t = np.swapaxes(rotation_2d(poses[:, 2]), 1, 2)
+    r = np.einsum("nij,nkj->nki", rot_t, point - poses[:, None, :2])
+    n = np.einsum("nij,nkj->nki", rot_t, normal)
+    push_dir = rot_t[:, :, 0]  # the pusher's +x in the object frame
+    vp = push_dir[:, None, :] - (gap / move[:, None])[..., None] * n
+    twist = np.zeros((len(poses), 3))
+    one = np.flatnonzero(count == 1)
+    if one.size:
+        twist[one], _ = single_contact_twist(r[one, 0], n[one, 0], vp[one, 0], mu[one], c[one])
+    for m in range(2, MAX_CONTACTS + 1):
+        idx = np.flatnonzero(count == m)
+        if idx.size:
+            sol = solve_contacts(r[idx, :m], n[idx, :m], vp[idx, :m], mu[idx], c[idx])
+            twist[idx] = sol.twist
+            jam = idx[sol.jammed]
+            twist[jam, :2], twist[jam, 2] = push_dir[jam], 0.0
+    return twist, count > 0
