@@ -28,15 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.execute import (
-    WAYPOINTS,
-    detect_scene,
-    execute_trial,
-    outcome_summary,
-    plan_from_detection,
-    true_worlds,
-)
+from agents.execute import WAYPOINTS, detect_scene, execute_trial, plan_from_detection, true_worlds
 from agents.jobs import JobSpec, config_digest, run_jobs
+from agents.records import BenchmarkRecord, ExecutionSummary, PlanFacts
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.scene import load_scene, resolve_noise, shipped_scene
 from planners.actions.settings import PlannerSettings
@@ -162,52 +156,53 @@ def check_planners(names: Sequence[str] | None, suite: Suite) -> tuple[str, ...]
 # One job
 # --------------------------------------------------------------------------------------------
 def run_job(job: Job) -> dict[str, Any]:
-    """Plan and execute one job. Never raises: an error becomes a failed record with it."""
+    """Plan and execute one job: its record as JSON. Never raises: an error becomes a failed
+    record with it."""
     try:
-        return {**_identity(job), **_plan_and_execute(job), "error": ""}
+        return _plan_and_execute(job).as_dict()
     except Exception as error:
         return _crashed(job, f"{type(error).__name__}: {error}")
 
 
-def _identity(job: Job) -> dict[str, Any]:
-    return {"key": job.key, "scene": job.case.label, "group": job.case.group,
-            "noise": job.case.noise, "planner": job.planner, "seed": job.seed}  # fmt: skip
+def _record(job: Job, **fields: Any) -> BenchmarkRecord:
+    return BenchmarkRecord(key=job.key, scene=job.case.label, group=job.case.group,
+                           noise=job.case.noise, planner=job.planner, seed=job.seed,
+                           **fields)  # fmt: skip
 
 
 def _crashed(job: Job, error: str) -> dict[str, Any]:
     """The record of a job that raised or killed its worker."""
-    return {**_identity(job), "success": False, "reason": f"crashed: {error}",
-            "planning_time_s": None, "error": error, "trials": 0,
-            "execution_successes": 0}  # fmt: skip
+    crashed = _record(
+        job, success=False, reason=f"crashed: {error}", planning_time_s=None, error=error
+    )
+    return crashed.as_dict()
 
 
-def _plan_and_execute(job: Job) -> dict[str, Any]:
+def _plan_and_execute(job: Job) -> BenchmarkRecord:
     scene = replace(load_scene(job.case.scene), noise=job.case.noise)
     rng = np.random.default_rng(job.case_seed)
     detection = detect_scene(scene, rng)
     settings = PlannerSettings(time_budget=job.time_budget, seed=job.case_seed)
     plan, _ = plan_from_detection(scene, detection, job.planner, settings, None, rng)
-    result: dict[str, Any] = {
-        "success": plan.success,
-        "reason": plan.reason,
-        "planning_time_s": round(plan.planning_time, 4),
-        "actions": len(plan.steps),
-        "objects_moved": plan.objects_moved,
-        "blocked_by": plan.blocked_by[:3],
-        "trials": 0,
-        "execution_successes": 0,
-    }
+    record = _record(
+        job,
+        success=plan.success,
+        reason=plan.reason,
+        planning_time_s=round(plan.planning_time, 4),
+        plan=PlanFacts(len(plan.steps), plan.objects_moved, plan.blocked_by[:3]),
+    )
     if not plan.success:
-        return result
-    result["plan_digest"] = hashlib.sha256(plan.trajectory.rows().tobytes()).hexdigest()[:12]
+        return record
+    digest = hashlib.sha256(plan.trajectory.rows().tobytes()).hexdigest()[:12]
+    record = replace(record, plan_digest=digest)
     # Without noise every true world is the detection: one execution says it all.
     trials = 1 if resolve_noise(scene.noise) == (0.0, 0.0) else job.trials
     if trials == 0:
-        return result
+        return record
     actions = plan.actions(WAYPOINTS)
     worlds = true_worlds(scene, detection, trials, rng)
-    result.update(outcome_summary([execute_trial(w, actions, i) for i, w in enumerate(worlds)]))
-    return result
+    outcomes = [execute_trial(w, actions, i) for i, w in enumerate(worlds)]
+    return replace(record, execution=ExecutionSummary.of(outcomes))
 
 
 # --------------------------------------------------------------------------------------------
@@ -257,7 +252,7 @@ def run_benchmark(
         desc=suite.name,
         describe=lambda r: "plan" if r["success"] else "no plan",
     )
-    records = run.records
+    records = [BenchmarkRecord.from_dict(r) for r in run.records]
     report = {
         "suite": suite.name,
         "description": suite.description,
@@ -270,7 +265,7 @@ def run_benchmark(
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count()},
         "resumed_jobs": run.resumed,
         "summary": summarize(records, suite.name),
-        "records": records,
+        "records": [r.as_dict() for r in records],
     }
     atomic_write_text(out, json.dumps(report, indent=1) + "\n")
     if markdown is not None:
@@ -296,23 +291,25 @@ def _first_scenes(cases: Iterable[Case], per_group: int | None) -> list[Case]:
     return [c for c in cases if c.label in keep]
 
 
-def summarize(records: list[dict[str, Any]], suite: str) -> dict[str, Any]:
+def summarize(records: list[BenchmarkRecord], suite: str) -> dict[str, Any]:
     """Per planner, group and noise: scenes solved, mean planning time, execution success."""
-    cells: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    cells: dict[tuple[str, str, str], list[BenchmarkRecord]] = {}
     for r in records:
-        cells.setdefault((r["planner"], r["group"], r["noise"]), []).append(r)
+        cells.setdefault((r.planner, r.group, r.noise), []).append(r)
     summary: dict[str, Any] = {}
     for (planner, group, noise), rows in cells.items():
-        times = [r["planning_time_s"] for r in rows if r["planning_time_s"] is not None]
-        solved = [r for r in rows if r["success"]]
-        executions = sum(r["trials"] for r in rows)
-        successes = sum(r["execution_successes"] for r in rows)
+        times = [r.planning_time_s for r in rows if r.planning_time_s is not None]
+        solved = [r for r in rows if r.success]
+        executions = sum(r.trials for r in rows)
+        successes = sum(r.execution_successes for r in rows)
         cell: dict[str, Any] = {
             "scenes": len(rows),
             "solved": len(solved),
-            "crashed": sum(bool(r.get("error")) for r in rows),
+            "crashed": sum(bool(r.error) for r in rows),
             "mean_planning_time_s": _mean(times),
-            "mean_planning_time_solved_s": _mean([r["planning_time_s"] for r in solved]),
+            "mean_planning_time_solved_s": _mean(
+                [r.planning_time_s for r in solved if r.planning_time_s is not None]
+            ),
             "executions": executions,
             "execution_successes": successes,
             "execution_success_rate": round(successes / executions, 4) if executions else None,
@@ -327,14 +324,14 @@ def summarize(records: list[dict[str, Any]], suite: str) -> dict[str, Any]:
     return summary
 
 
-def _figure_row(solved: list[dict[str, Any]]) -> dict[str, Any]:
-    if not solved:
-        return {"actions": None, "objects_moved": None, "mean_execution_simulated_s": None}
-    r = solved[0]
+def _figure_row(solved: list[BenchmarkRecord]) -> dict[str, Any]:
+    first = solved[0] if solved else None
     return {
-        "actions": r["actions"],
-        "objects_moved": r["objects_moved"],
-        "mean_execution_simulated_s": r.get("mean_execution_simulated_s"),
+        "actions": first.plan.actions if first and first.plan else None,
+        "objects_moved": first.plan.objects_moved if first and first.plan else None,
+        "mean_execution_simulated_s": (
+            first.execution.mean_execution_simulated_s if first and first.execution else None
+        ),
     }
 
 
@@ -426,15 +423,15 @@ def _figures_markdown(report: dict[str, Any]) -> str:
         "| execution [simulated s] | execution success |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in report["records"]:
-        moved = ", ".join(r.get("objects_moved") or []) or "-"
-        execution = "-" if not r["trials"] else f"{r['execution_successes']}/{r['trials']}"
-        simulated = r.get("mean_execution_simulated_s")
+    for r in (BenchmarkRecord.from_dict(d) for d in report["records"]):
+        plan, execution = r.plan, r.execution
+        moved = ", ".join(plan.objects_moved if plan else []) or "-"
+        executed = f"{r.execution_successes}/{r.trials}" if r.trials else "-"
+        simulated = execution.mean_execution_simulated_s if execution else None
         lines.append(
-            f"| {r['scene']} | {r['noise']} | {r['planner']} | "
-            f"{'yes' if r['success'] else 'no: ' + _short(r)} | {r.get('actions', '-')} | "
-            f"{moved} | {_or_dash(r['planning_time_s'])} | {_or_dash(simulated)} "
-            f"| {execution} |"
+            f"| {r.scene} | {r.noise} | {r.planner} | "
+            f"{'yes' if r.success else 'no: ' + _short(r)} | {plan.actions if plan else '-'} | "
+            f"{moved} | {_or_dash(r.planning_time_s)} | {_or_dash(simulated)} | {executed} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -443,6 +440,6 @@ def _or_dash(value: object) -> str:
     return "-" if value is None else str(value)
 
 
-def _short(record: dict[str, Any]) -> str:
-    blocked = record.get("blocked_by") or [record["reason"]]
+def _short(record: BenchmarkRecord) -> str:
+    blocked = (record.plan.blocked_by if record.plan else []) or [record.reason]
     return str(blocked[0]).replace("|", "/")

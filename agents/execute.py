@@ -24,6 +24,7 @@ import numpy as np
 
 from agents.jobs import JobSpec, config_digest, run_jobs
 from agents.plan_figure import write_timeline
+from agents.records import ExecutionSummary, TrialOutcome
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
 from clutter_gym.model import herb as hm
@@ -104,7 +105,7 @@ def execute(
     actions: list[np.ndarray],
     seed: int,
     on_frame: Callable[[np.ndarray], object] | None = None,
-) -> dict[str, Any]:
+) -> TrialOutcome:
     """Replay env actions on one true world; the outcome. With ``on_frame``, every rendered
     frame is handed to it as it comes (a `clutter_gym.media.GifStream`)."""
     env = ClutterRetrieveEnv(
@@ -121,41 +122,22 @@ def execute(
             _, _, terminated, truncated, info = env.step(action)
             if terminated or truncated:
                 break
-        return {
-            "success": bool(info["is_success"]),
-            "failure": info["failure"],
-            "goal_lift_m": round(float(info["goal_lift"]), 4),
-            "simulated_s": round(info["sim_steps"] * env.sim.timestep, 2),
-        }
+        return TrialOutcome(
+            success=bool(info["is_success"]),
+            failure=info["failure"],
+            goal_lift_m=round(float(info["goal_lift"]), 4),
+            simulated_s=round(info["sim_steps"] * env.sim.timestep, 2),
+        )
     finally:
         env.close()
 
 
-def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> dict[str, Any]:
+def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> TrialOutcome:
     """One trial's outcome; a trial that crashes is a failed trial, with the error."""
     try:
-        outcome = execute(world, actions, seed=seed)
+        return execute(world, actions, seed=seed)
     except Exception as error:
-        outcome = {"success": False, "failure": f"crashed: {error!r}"}
-    return outcome
-
-
-def outcome_summary(outcomes: list[dict[str, Any]]) -> dict[str, Any]:
-    """Trials, successes, failures by reason and mean simulated time of executed trials."""
-    successes = sum(o["success"] for o in outcomes)
-    failures: dict[str, int] = {}
-    for o in outcomes:
-        if not o["success"]:
-            reason = o.get("failure") or "goal not retrieved"
-            failures[reason] = failures.get(reason, 0) + 1
-    sim = [o["simulated_s"] for o in outcomes if "simulated_s" in o]
-    return {
-        "trials": len(outcomes),
-        "execution_successes": successes,
-        "execution_success_rate": successes / len(outcomes) if outcomes else None,
-        "execution_failures": failures,
-        "mean_execution_simulated_s": round(float(np.mean(sim)), 2) if sim else None,
-    }
+        return TrialOutcome.crashed(repr(error))
 
 
 TrialJob = tuple[int, Scene, list[np.ndarray]]
@@ -164,7 +146,7 @@ TrialJob = tuple[int, Scene, list[np.ndarray]]
 
 def _run_trial(job: TrialJob) -> dict[str, Any]:
     index, world, actions = job
-    return execute_trial(world, actions, seed=index)
+    return execute_trial(world, actions, seed=index).as_dict()
 
 
 def _trial_key(job: TrialJob) -> str:
@@ -172,7 +154,7 @@ def _trial_key(job: TrialJob) -> str:
 
 
 def _trial_crashed(job: TrialJob, error: str) -> dict[str, Any]:
-    return {"success": False, "failure": f"crashed: {error}"}
+    return TrialOutcome.crashed(error).as_dict()
 
 
 TRIALS = JobSpec(work=_run_trial, key=_trial_key, crashed=_trial_crashed)
@@ -223,7 +205,7 @@ def run_plan(
             with gif_writer(gif, fps=10) as frames:
                 outcome = execute(worlds[0], actions, seed=0, on_frame=frames.add)
             report["gif"] = str(gif)
-            report["gif_trial"] = outcome
+            report["gif_trial"] = outcome.as_dict()
         if trials:
             report.update(_trials(worlds[:trials], actions, out, workers))
     if out is not None:
@@ -244,8 +226,9 @@ def _trials(
     log = base.with_name(f"{base.name}.trials.jsonl")
     jobs = [(i, w, actions) for i, w in enumerate(worlds)]
     run = run_jobs(jobs, TRIALS, log, config_digest(plan), workers=workers, desc="execute")
+    outcomes = [TrialOutcome.from_dict(r) for r in run.records]
     return {
-        **outcome_summary(run.records),
+        **ExecutionSummary.of(outcomes).as_dict(),
         "resumed_trials": run.resumed,
-        "trial_outcomes": run.records,
+        "trial_outcomes": [o.as_dict() for o in outcomes],
     }

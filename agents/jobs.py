@@ -185,37 +185,18 @@ def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
             yield job, _guarded(spec, job)
         return
     queue, suspects = list(jobs), list[J]()
-    context = multiprocessing.get_context("spawn")
     with _FirstInterrupt() as interrupt:
         while (queue and not interrupt.seen) or suspects:
             alone = bool(suspects)
             batch, limit = (suspects, 1) if alone else (queue, workers)
             pool = ProcessPoolExecutor(
-                limit, mp_context=context, initializer=_worker_init, initargs=(os.getpid(),)
+                limit,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_worker_init,
+                initargs=(os.getpid(),),
             )
-            running: dict[Future[Record], J] = {}
             try:
-                while (batch and not interrupt.seen) or running:
-                    while batch and not interrupt.seen and len(running) < limit:
-                        job = batch.pop(0)
-                        running[pool.submit(_guarded, spec, job)] = job
-                    finished, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
-                    for future in finished:
-                        job = running.pop(future)
-                        try:
-                            record = future.result()
-                        except BrokenProcessPool:
-                            if alone:
-                                yield job, spec.crashed(job, "the worker process died running it")
-                            else:
-                                suspects.append(job)
-                            suspects.extend(running.values())  # empty when alone
-                            running.clear()
-                            break
-                        yield job, record
-                    else:
-                        continue
-                    break  # the pool is broken: a fresh one for what is left
+                yield from _drain(pool, batch, limit, spec, suspects, interrupt)
             except BaseException:  # a second Ctrl-C, or the consumer gave up: stop them now
                 _terminate(pool)
                 raise
@@ -224,6 +205,38 @@ def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
                 suspects.clear()
     if interrupt.seen:
         raise KeyboardInterrupt
+
+
+def _drain(
+    pool: ProcessPoolExecutor,
+    batch: list[J],
+    limit: int,
+    spec: JobSpec[J],
+    suspects: list[J],
+    interrupt: _FirstInterrupt,
+) -> Finished:
+    """Run jobs of ``batch`` in the pool, ``limit`` at a time, until the batch is done (or an
+    interrupt stops new ones). A worker that dies breaks the pool: the jobs running then join
+    ``suspects`` to be retried alone, and one that dies alone becomes its crash record."""
+    alone = batch is suspects
+    running: dict[Future[Record], J] = {}
+    while (batch and not interrupt.seen) or running:
+        while batch and not interrupt.seen and len(running) < limit:
+            job = batch.pop(0)
+            running[pool.submit(_guarded, spec, job)] = job
+        finished, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+        for future in finished:
+            job = running.pop(future)
+            try:
+                record = future.result()
+            except BrokenProcessPool:
+                if alone:
+                    yield job, spec.crashed(job, "the worker process died running it")
+                else:
+                    suspects.append(job)
+                suspects.extend(running.values())  # empty when alone
+                return
+            yield job, record
 
 
 class _FirstInterrupt:

@@ -33,7 +33,7 @@ from clutter_gym.model.observation import (
 from clutter_gym.model.scene import LEVELS, Level, Scene, generate_scene, load_scene
 from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS
 from clutter_gym.model.transforms import yaw_of_quaternion
-from clutter_gym.model.world import SURFACES, get_surface
+from clutter_gym.model.world import SURFACES, Surface, get_surface
 from clutter_gym.sim.controllers import EndEffectorDeltaController, TrajectoryController, real_array
 from clutter_gym.sim.robot import Herb
 from clutter_gym.sim.simulator import Camera, Simulator
@@ -175,6 +175,33 @@ class ClutterRetrieveEnv(gym.Env[Observation, np.ndarray]):
     @property
     def scene(self) -> Scene:
         return self._scene
+
+    @property
+    def surface(self) -> Surface:
+        return self._surface
+
+    @property
+    def task(self) -> RetrievalTask:
+        """The episode's rules (success, failure, reward), e.g. ``env.task.evaluate()``."""
+        return self._task
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Env steps since the last reset."""
+        return self._steps
+
+    @property
+    def sim_steps(self) -> int:
+        """Physics steps since the last reset."""
+        return self._sim_steps
+
+    @property
+    def recording(self) -> bool:
+        return self._on_frame is not None
+
+    def true_poses(self) -> np.ndarray:
+        """True planar poses (N, 3) of the scene's objects, in scene order (for evaluation)."""
+        return self._true_poses()
 
     def _reset_options(
         self, options: object

@@ -41,6 +41,7 @@ from planners.capture_build import (
 from planners.hand2d import (
     MAX_APERTURE,
     check_fits,
+    check_footprint,
     default_aperture,
     push_grasp_profile,
     sweep_profile,
@@ -305,11 +306,7 @@ def sweep_region(
 ) -> SweepRegion:
     """The sweep capture region of an object outline (any size), fingers at ``aperture``."""
     settings = settings or CaptureSettings()
-    sizes = (footprint.radius,) if footprint.shape == "circle" else footprint.half_extents
-    if footprint.shape not in ("circle", "box") or not all(
-        math.isfinite(s) and s > 0 for s in sizes
-    ):
-        raise ValueError(f"footprint sizes must be positive and finite, got {footprint!r}")
+    check_footprint(footprint)
     hand = sweep_profile(aperture)
     arrays = cached_arrays(
         "sweep",

@@ -219,12 +219,8 @@ def plan_goto(
     straight segment is re-checked so that no joint moves more than ``resolution`` rad between
     checked configurations; the same seed and inputs give the same path."""
     began = time.perf_counter()
-    checks = jacobians = 0
-
-    def is_free(q: np.ndarray) -> bool:
-        nonlocal checks
-        checks += 1
-        return bool(is_valid(q))
+    limit = math.inf if max_evaluations is None else max_evaluations
+    count = _Evaluations(is_valid, limit, began + float(time_budget))
 
     def result(path: np.ndarray | None, reason: str) -> GoToResult:
         return GoToResult(
@@ -232,63 +228,110 @@ def plan_goto(
             success=path is not None,
             reason=reason,
             planning_time=time.perf_counter() - began,
-            collision_checks=checks,
+            collision_checks=count.checks,
         )
 
     q0, q1 = (np.asarray(q, dtype=float) for q in (start, goal))
     lo, hi = (np.asarray(b, dtype=float) for b in (lower, upper))
-    error = _request_error(q0, q1, lo, hi, float(time_budget))
-    if not error and not (math.isfinite(resolution) and resolution > 0):
-        error = f"resolution must be > 0 (got {resolution})"
-    if not error and seed < 0:
-        error = f"seed must be >= 0 (got {seed})"
-    if not error and max_evaluations is not None and max_evaluations < 1:
-        error = f"max_evaluations must be >= 1 (got {max_evaluations})"
+    error = _request_error(q0, q1, lo, hi, float(time_budget)) or _settings_error(
+        resolution, seed, max_evaluations
+    )
+    error = error or _endpoints_error(q0, q1, count.free, constraint)
     if error:
         return result(None, error)
-    if not is_free(q0):
-        return result(None, "start configuration is in collision")
-    if not is_free(q1):
-        return result(None, "goal configuration is in collision")
-    if constraint is not None:
-        for name, q in (("start", q0), ("goal", q1)):
-            if np.max(np.abs(constraint.function(q))) > constraint.tolerance:
-                return result(None, f"{name} configuration violates the constraint")
     # Most transits between actions are free in a straight joint line: try it before OMPL.
     direct = np.stack([q0, q1])
-    if constraint is None and all(is_free(q) for q in interpolate(direct, resolution)[1:-1]):
+    if constraint is None and all(count.free(q) for q in interpolate(direct, resolution)[1:-1]):
         return result(direct, "")
-
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
     try:
         _reseed(seed)
-        deadline = began + float(time_budget)
-        limit = math.inf if max_evaluations is None else max_evaluations
-
-        def stop() -> bool:
-            return checks + jacobians >= limit or time.perf_counter() >= deadline
-
-        def count_jacobian() -> None:
-            nonlocal jacobians
-            jacobians += 1
-
-        def free_within_budget(q: np.ndarray) -> bool:
-            return not stop() and is_free(q)
-
         path = _ompl_plan(
-            q0, q1, free_within_budget, lo, hi, stop, resolution, constraint, count_jacobian
-        )
+            q0, q1, count.free_within_budget, lo, hi, count.stop, resolution, constraint,
+            count.add_jacobian,
+        )  # fmt: skip
     finally:
         ou.setLogLevel(level)
     if path is None:
-        if checks + jacobians >= limit:
+        if count.spent():
             return result(None, f"no path found within {max_evaluations} evaluations")
         return result(None, f"no path found within {time_budget:g} s")
-    if not all(is_free(q) for q in interpolate(path, resolution)):
-        return result(None, f"simplified path collides when re-checked at {resolution:g} rad")
+    error = _path_error(path, count.free, resolution, constraint)
+    return result(None if error else path, error)
+
+
+class _Evaluations:
+    """The evaluations of one request (collision checks, and the constraint's Jacobians when
+    constrained), against their limit and the wall-clock deadline."""
+
+    def __init__(
+        self, is_valid: Callable[[np.ndarray], bool], limit: float, deadline: float
+    ) -> None:
+        self.is_valid = is_valid
+        self.limit = limit
+        self.deadline = deadline
+        self.checks = 0
+        self.jacobians = 0
+
+    def free(self, q: np.ndarray) -> bool:
+        self.checks += 1
+        return bool(self.is_valid(q))
+
+    def add_jacobian(self) -> None:
+        self.jacobians += 1
+
+    def spent(self) -> bool:
+        return self.checks + self.jacobians >= self.limit
+
+    def stop(self) -> bool:
+        return self.spent() or time.perf_counter() >= self.deadline
+
+    def free_within_budget(self, q: np.ndarray) -> bool:
+        """Invalid once the budget is spent: ends an extension in progress at once."""
+        return not self.stop() and self.free(q)
+
+
+def _settings_error(resolution: float, seed: int, max_evaluations: int | None) -> str:
+    if not (math.isfinite(resolution) and resolution > 0):
+        return f"resolution must be > 0 (got {resolution})"
+    if seed < 0:
+        return f"seed must be >= 0 (got {seed})"
+    if max_evaluations is not None and max_evaluations < 1:
+        return f"max_evaluations must be >= 1 (got {max_evaluations})"
+    return ""
+
+
+def _endpoints_error(
+    q0: np.ndarray,
+    q1: np.ndarray,
+    free: Callable[[np.ndarray], bool],
+    constraint: JointConstraint | None,
+) -> str:
+    """Why the start or goal cannot be an endpoint (in collision, off the constraint), or ""."""
+    if not free(q0):
+        return "start configuration is in collision"
+    if not free(q1):
+        return "goal configuration is in collision"
+    if constraint is not None:
+        for name, q in (("start", q0), ("goal", q1)):
+            if np.max(np.abs(constraint.function(q))) > constraint.tolerance:
+                return f"{name} configuration violates the constraint"
+    return ""
+
+
+def _path_error(
+    path: np.ndarray,
+    free: Callable[[np.ndarray], bool],
+    resolution: float,
+    constraint: JointConstraint | None,
+) -> str:
+    """Why a found path is not kept (it collides when re-checked densely, or leaves the
+    constraint), or ""."""
+    if not all(free(q) for q in interpolate(path, resolution)):
+        return f"simplified path collides when re-checked at {resolution:g} rad"
     if constraint is not None:
         worst = max(float(np.max(np.abs(constraint.function(q)))) for q in path)
         if worst > constraint.tolerance:
-            return result(None, f"path leaves the constraint by {worst:.2g}")
-    return result(path, "")
+            return f"path leaves the constraint by {worst:.2g}"
+    return ""

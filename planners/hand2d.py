@@ -119,13 +119,18 @@ def default_aperture(footprint: Footprint) -> float:
     return min(MAX_APERTURE, 2.0 * footprint.bounding_radius + 0.04)
 
 
-def check_fits(footprint: Footprint, aperture: float) -> None:
-    """ValueError unless the object's narrowest width fits the hand and this aperture."""
+def check_footprint(footprint: Footprint) -> None:
+    """ValueError unless the outline is a circle or box with positive, finite sizes."""
     sizes = (footprint.radius,) if footprint.shape == "circle" else footprint.half_extents
     if footprint.shape not in ("circle", "box") or not all(
         math.isfinite(s) and s > 0 for s in sizes
     ):
         raise ValueError(f"footprint sizes must be positive and finite, got {footprint!r}")
+
+
+def check_fits(footprint: Footprint, aperture: float) -> None:
+    """ValueError unless the object's narrowest width fits the hand and this aperture."""
+    check_footprint(footprint)
     width = footprint.min_width
     if width >= MAX_APERTURE:
         raise ValueError(

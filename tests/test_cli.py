@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 from PIL import Image
-from scene_dicts import OUT_OF_REACH, lone_can
 
 from agents import jobs
 from agents.cli import main
 from clutter_gym.model.scene import generate_scene, load_scene
+from tests.helpers import OUT_OF_REACH, lone_can
 
 
 def test_scene_command_writes_the_generated_scene(tmp_path: Path) -> None:
@@ -50,6 +50,7 @@ def test_unknown_level_lists_the_choices(capsys: pytest.CaptureFixture[str]) -> 
     assert "none" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_demo_plans_clears_the_box_and_retrieves_the_can(tmp_path: Path) -> None:
     assert main(["demo", "--out-dir", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "demo.json").read_text())
@@ -72,6 +73,7 @@ def test_bench_env_writes_json(tmp_path: Path) -> None:
     assert result["resets"] == 5
 
 
+@pytest.mark.slow
 def test_bench_plan_writes_json(tmp_path: Path) -> None:
     out = tmp_path / "plan.json"
     assert main(["bench", "plan", "--seeds", "1", "--json", str(out)]) == 0
@@ -126,14 +128,10 @@ def test_written_files_get_normal_permissions(tmp_path: Path) -> None:
     assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() would, not mkstemp's 0600
 
 
-LONE_CAN = lone_can("sigma2")
-
-
 def test_plan_executes_on_true_worlds_and_resumes(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, lone_can_file: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    scene = tmp_path / "can.json"
-    scene.write_text(json.dumps(LONE_CAN))
+    scene = lone_can_file
     out = tmp_path / "plan.json"
     args = ["plan", "--scene", str(scene), "--execute", "--trials", "2", "--workers", "1"]
     assert main([*args, "--json", str(out), "--figure", str(tmp_path / "t.png")]) == 0
@@ -152,10 +150,9 @@ def test_plan_executes_on_true_worlds_and_resumes(
 
 
 def test_plan_trials_made_by_other_code_are_not_resumed(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, lone_can_file: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    scene = tmp_path / "can.json"
-    scene.write_text(json.dumps(LONE_CAN))
+    scene = lone_can_file
     args = ["plan", "--scene", str(scene), "--execute", "--trials", "1", "--workers", "1"]
     assert main(args) == 0  # no --json: the trials log is out/plan.json.trials.jsonl
     monkeypatch.chdir(tmp_path)
@@ -188,9 +185,12 @@ def test_plan_reports_why_there_is_no_plan(
     ],
 )
 def test_plan_bad_arguments_are_one_clear_error(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+    tmp_path: Path,
+    lone_can_file: Path,
+    capsys: pytest.CaptureFixture[str],
+    extra: list[str],
+    message: str,
 ) -> None:
-    scene = tmp_path / "can.json"
-    scene.write_text(json.dumps(LONE_CAN))
+    scene = lone_can_file
     assert main(["plan", "--scene", str(scene), *extra]) == 2
     assert message in capsys.readouterr().err

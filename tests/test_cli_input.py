@@ -11,7 +11,6 @@ import time
 from pathlib import Path
 
 import pytest
-from scene_dicts import lone_can
 
 from agents.cli import main
 
@@ -23,11 +22,10 @@ def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, 
 
 
 @pytest.fixture
-def files(tmp_path: Path) -> dict[str, Path]:
+def files(tmp_path: Path, lone_can_file: Path) -> dict[str, Path]:
     """A scene, a directory, a regular file, a file of invalid JSON and a JSON that is not a
     report, all under tmp_path."""
-    scene = tmp_path / "scene.json"
-    scene.write_text(json.dumps(lone_can("sigma2")))
+    scene = lone_can_file
     (tmp_path / "dir").mkdir()
     (tmp_path / "file.txt").write_text("a regular file")
     (tmp_path / "bad.json").write_text('{"suite": "table1", ')

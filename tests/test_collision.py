@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pybullet
 import pytest
-from herb_bullet import HerbBullet, load_herb, transform
 
 from clutter_gym.model import herb as hm
 from clutter_gym.model.arm_geometry import ArmGeometry
@@ -26,6 +25,7 @@ from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose
 from clutter_gym.model.world import TABLE
 from planners.actions.grasp_geometry import approach_rotation
+from tests.helpers import HerbBullet, load_herb, transform
 
 CAN_XY = (0.90, -0.30)
 #: Table + 3 objects: the can where the test grasps reach, the others nearby.
@@ -71,7 +71,8 @@ def bullet(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Bullet]:
                 )
             )
             orientation = c.getQuaternionFromEuler((0.0, 0.0, theta))
-            bodies.append(c.createMultiBody(0, shape, -1, (x, y, TABLE.top_z + p.xyz[2]), orientation))
+            position = (x, y, TABLE.top_z + p.xyz[2])
+            bodies.append(c.createMultiBody(0, shape, -1, position, orientation))
     yield Bullet(herb.client, herb.robot, herb.joints, herb.links, bodies)
     c.disconnect()
 

@@ -13,13 +13,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
-from scene_dicts import lone_can
 
 import clutter_gym  # noqa: F401  (registers the env)
 import clutter_gym.env as env_module
 from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
 from clutter_gym.model.fields import shown
 from clutter_gym.sim.simulator import Camera
+from tests.helpers import lone_can
 
 SCENE = lone_can("sigma1")
 
@@ -46,12 +46,12 @@ def world_state(env: ClutterRetrieveEnv) -> tuple[object, ...]:
     """Everything a rejected call must leave as it was."""
     arm, velocities = env.herb.arm_state()
     return (
-        env._true_poses().tolist(),
+        env.true_poses().tolist(),
         arm.tolist(),
         velocities.tolist(),
         env.herb.hand_state().tolist(),
-        env._sim_steps,
-        env._steps,
+        env.sim_steps,
+        env.elapsed_steps,
         env.scene,
         env.np_random.bit_generator.state,
     )
@@ -212,7 +212,7 @@ def test_bad_recording_arguments(
 ) -> None:
     with bad_value(field, kwargs[field]):
         env.start_recording(**kwargs)
-    assert env._recording_every == 0
+    assert not env.recording
 
 
 # --- gym.make keywords ---------------------------------------------------------------------------

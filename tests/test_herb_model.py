@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pybullet
 import pytest
-from herb_bullet import HerbBullet, load_herb
 
 from clutter_gym.model import herb as hm
 from clutter_gym.model.kinematics import ArmKinematics
+from tests.helpers import HerbBullet, load_herb
 
 TABLE_TOP = 0.735
 

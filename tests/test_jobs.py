@@ -97,7 +97,7 @@ def test_code_digest_covers_the_packages() -> None:
 
 
 def _start(script: str, tmp_path: Path) -> subprocess.Popen[str]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS), str(ROOT)])}
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.Popen(
         [sys.executable, "-c", script], cwd=tmp_path, env=env, text=True,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -119,7 +119,7 @@ def _workers(parent: int, count: int, timeout: float = 60.0) -> list[psutil.Proc
 RUN_SLOW = (
     "from pathlib import Path\n"
     "from agents.jobs import run_jobs\n"
-    "from test_jobs import SLOW_SQUARES\n"
+    "from tests.test_jobs import SLOW_SQUARES\n"
     "run_jobs([1, 2, 3, 4], SLOW_SQUARES, Path('run.jsonl'), 'c', workers=2)\n"
 )
 

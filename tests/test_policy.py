@@ -9,12 +9,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
-from scene_dicts import OUT_OF_REACH, lone_can
 
 import clutter_gym  # noqa: F401  (registers the env)
 from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.model.scene import load_scene, scene_from_dict
 from planners.actions.settings import PlannerSettings
+from tests.helpers import OUT_OF_REACH, lone_can
 
 LONE_CAN = lone_can("sigma3")
 

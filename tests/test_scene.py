@@ -36,21 +36,17 @@ from clutter_gym.model.scene import (
     write_paper_suite,
 )
 from clutter_gym.model.world import SHELF, SURFACES, TABLE, get_surface
+from tests.helpers import two_objects
 
 SURFACE_NAMES = sorted(SURFACES)
 
 
 def _valid() -> dict[str, Any]:
-    return {
-        "format": "clutter-gym-scene/1",
-        "surface": "table",
-        "objects": [
-            {"name": "can", "kind": "soda_can", "pose": [0.90, -0.2, 0.0]},
-            {"name": "box", "kind": "large_box", "pose": [0.95, -0.45, 0.0]},
-            {"name": "tart", "kind": "poptart_box", "pose": [1.05, -0.05, 0.3]},
-        ],
-        "goal": {"object": "can"},
-    }
+    """Two objects and a poptart box, every optional field left to its default."""
+    scene = two_objects()
+    del scene["noise"]
+    scene["objects"].append({"name": "tart", "kind": "poptart_box", "pose": [1.05, -0.05, 0.3]})
+    return scene
 
 
 def _gaps(scene: Scene) -> dict[tuple[int, int], float]:

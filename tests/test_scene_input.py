@@ -23,28 +23,16 @@ from clutter_gym.model.scene import (
     scene_from_dict,
 )
 from clutter_gym.model.world import SURFACES
+from tests.helpers import two_objects
 
 FIELD_PATH = re.compile(r"^(scene|format|surface|objects|goal|noise)[\w\[\]\.]*: ")
 SHORT = 400
 """Longest acceptable error message: values are shown abbreviated."""
 
 
-def _valid() -> dict[str, Any]:
-    return {
-        "format": "clutter-gym-scene/1",
-        "surface": "table",
-        "objects": [
-            {"name": "can", "kind": "soda_can", "pose": [0.90, -0.2, 0.0]},
-            {"name": "box", "kind": "large_box", "pose": [0.95, -0.45, 0.0]},
-        ],
-        "goal": {"object": "can"},
-        "noise": "sigma2",
-    }
-
-
 def _shelf(pose: list[float]) -> dict[str, Any]:
     """A can alone on the shelf; the default goal region is the front strip x [0.72, 0.85]."""
-    d = _valid()
+    d = two_objects()
     d["surface"] = "shelf"
     d["objects"] = [{"name": "can", "kind": "soda_can", "pose": pose}]
     return d
@@ -65,7 +53,7 @@ def _error(d: Any) -> str:
 
 def _with(field: str, value: Any, d: dict[str, Any] | None = None) -> dict[str, Any]:
     """``d`` (default: the valid scene) with ``field`` (``a.b[i]`` path) set to ``value``."""
-    d = _valid() if d is None else d
+    d = two_objects() if d is None else d
     keys: list[Any] = [int(k) if k.isdigit() else k for k in re.findall(r"\w+", field)]
     target: Any = d
     for key in keys[:-1]:
@@ -90,7 +78,7 @@ def _with(field: str, value: Any, d: dict[str, Any] | None = None) -> dict[str, 
     ids=lambda v: v if isinstance(v, str) else "huge",
 )
 def test_integers_too_large_for_a_float_name_the_field(field: str, value: int) -> None:
-    d = _valid()
+    d = two_objects()
     d["goal"]["region"] = {"x": [0.63, 1.37], "y": [-1.125, 0.725]}
     d["noise"] = {"xy": 0.01, "theta": 0.1}
     message = _error(_with(field, value, d))
@@ -99,7 +87,7 @@ def test_integers_too_large_for_a_float_name_the_field(field: str, value: int) -
 
 
 def test_direct_construction_with_a_huge_integer_names_the_field() -> None:
-    scene = scene_from_dict(_valid())
+    scene = scene_from_dict(two_objects())
     with pytest.raises(ValueError, match=r"^objects\[0\].pose\[0\]: "):
         dataclasses.replace(scene, objects=(ObjectPlacement("can", "soda_can", (10**400, 0, 0)),))
     with pytest.raises(ValueError, match=r"^noise.xy: "):
@@ -201,7 +189,7 @@ def test_resolve_noise_accepts_the_scene_file_mapping() -> None:
 
 
 def test_scene_noise_is_stored_as_a_name_or_a_pair() -> None:
-    scene = scene_from_dict(_valid())
+    scene = scene_from_dict(two_objects())
     custom = dataclasses.replace(scene, noise={"xy": 0.01, "theta": 0.1})  # type: ignore[arg-type]
     assert custom.noise == (0.01, 0.1)
     assert hash(custom) == hash(dataclasses.replace(scene, noise=(0.01, 0.1)))
@@ -314,10 +302,10 @@ def test_empty_path_is_rejected() -> None:
 
 
 def test_unknown_keys_of_any_form_name_their_object() -> None:
-    d = _valid()
+    d = two_objects()
     d["objects"][0]["a\nb: "] = 1
     assert _error(d).startswith("objects[0]: unknown key 'a\\nb: '; allowed keys: name,")
-    d = _valid()
+    d = two_objects()
     d["goal"][None] = 1
     assert _error(d).startswith("goal: unknown key None; allowed keys: object,")
 

@@ -379,6 +379,15 @@ def load_scene(source: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
     if not name:
         raise ValueError("scene: the file path is empty; expected the path of a JSON scene file")
     path = Path(name)
+    data = _read_json(path)
+    try:
+        return scene_from_dict(data)
+    except ValueError as err:
+        raise ValueError(f"{path}: {err}") from err
+
+
+def _read_json(path: Path) -> Any:
+    """The JSON value of a scene file; every failure a ValueError naming the file."""
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -392,17 +401,13 @@ def load_scene(source: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
     except (OSError, ValueError) as err:  # ValueError: e.g. a NUL byte in the path
         raise ValueError(f"{path}: cannot be read: {err}") from err
     try:
-        data = json.loads(text)
+        return json.loads(text)
     except RecursionError:
         raise ValueError(
             f"{path}: not valid JSON: nested too deeply (beyond Python's recursion limit)"
         ) from None
     except ValueError as err:  # a syntax error, or an integer too long to convert
         raise ValueError(f"{path}: not valid JSON: {err}") from err
-    try:
-        return scene_from_dict(data)
-    except ValueError as err:
-        raise ValueError(f"{path}: {err}") from err
 
 
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:

@@ -11,7 +11,7 @@ inside the hand's pocket.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 
 import numpy as np
 
@@ -52,18 +52,10 @@ def push_grasp(
     found = 0
     for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach):
         for aperture in apertures:
-            result: Outcome | None = None
-            for offset in ctx.settings.offsets:
-                ctx.check_budget()
-                ctx.stats.actions_tried += 1
-                result = _push_grasp_at(
-                    ctx, arm, name, goal, avoid, action, heading, aperture, offset
-                )
-                if isinstance(result, Failure):
-                    yield result
-                if not (isinstance(result, Failure) and result.reason == MISSES_SAMPLES):
-                    break  # offsets shift the hand by a centimetre: they only help the capture
-            if not isinstance(result, ActionResult):
+            result = yield from _over_offsets(
+                ctx, arm, name, goal, avoid, action, heading, aperture
+            )
+            if result is None:
                 continue
             yield result
             found += 1
@@ -77,6 +69,31 @@ def push_grasp(
                 found += 1
                 if found >= ctx.settings.candidates_per_action:
                     return
+
+
+def _over_offsets(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+) -> Generator[Failure, None, ActionResult | None]:
+    """The push-grasp at this heading and aperture, trying the lateral offsets while the
+    capture region misses samples (an offset shifts the hand by a centimetre: it only helps
+    the capture); the failures on the way are yielded."""
+    for offset in ctx.settings.offsets:
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        outcome = _push_grasp_at(ctx, arm, name, goal, avoid, action, heading, aperture, offset)
+        if isinstance(outcome, ActionResult):
+            return outcome
+        yield outcome
+        if outcome.reason != MISSES_SAMPLES:
+            return None
+    return None
 
 
 def _push_grasp_at(

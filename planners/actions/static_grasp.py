@@ -19,8 +19,8 @@ from planners.actions.hand_in import hand_in, pick_up_or_release
 from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
-from planners.capture import push_grasp_apertures
-from planners.hand2d import push_grasp_profile
+from planners.capture import CaptureRegion, push_grasp_apertures
+from planners.hand2d import PushGraspProfile, push_grasp_profile
 from planners.tsr import GraspTSR, grasps_every_sample
 
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
@@ -59,32 +59,13 @@ def static_grasp(
             (-profile.half_gap, profile.half_gap),
             (profile.grasp_line - TSR_DEPTH, profile.grasp_line),
         )
-        draws = tsr.sample(ctx.rng, TSR_DRAWS)
-        with ctx.stats.timed("capture"):
-            draws = draws[grasps_every_sample(region, tsr, draws, belief.samples)]
+        draws = _grasping_draws(ctx, arm, name, tsr, region, profile)
         if not len(draws):
             yield Failure(name, action, "no hand pose in the TSR grasps every uncertainty sample")
             continue
-        # §2.2.6's order of the push directions (objects hit on the way in first), then the
-        # most centred between the fingers.
-        ranked = np.array(
-            push_headings(ctx, arm.kinematics.shoulder, name, profile.pusher.bounds[3])
-        )
-        rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
-        draws = draws[np.lexsort((np.abs(draws[:, 1]), rank))]
-        tried: list[float] = []
-        for heading, lateral, depth in draws:
-            if len(tried) >= TSR_IK_TRIES:
-                break
-            near_found = any(
-                abs(heading - h) < math.radians(ctx.settings.heading_step_deg) for h in found
-            )
-            near_tried = any(abs(heading - h) < TSR_SPREAD for h in tried)
-            if near_found or near_tried:
-                continue  # a pose from nearly the same direction fails (or works) the same way
+        for heading, lateral, depth in _distinct(draws, found, ctx.settings.heading_step_deg):
             ctx.check_budget()
             ctx.stats.actions_tried += 1
-            tried.append(float(heading))
             frame = tsr.hand_frame(heading, lateral, depth)
             end_xy = np.asarray(frame.origin)
             back = (
@@ -113,3 +94,42 @@ def static_grasp(
                 found.append(float(heading))
                 if len(found) >= ctx.settings.candidates_per_action:
                     return
+
+
+def _grasping_draws(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    tsr: GraspTSR,
+    region: CaptureRegion,
+    profile: PushGraspProfile,
+) -> np.ndarray:
+    """Hand poses (K, 3) drawn from the TSR that grasp every sample as it stands, in §2.2.6's
+    order of the push directions (objects hit on the way in first), then most centred."""
+    samples = ctx.beliefs[name].samples
+    draws = tsr.sample(ctx.rng, TSR_DRAWS)
+    with ctx.stats.timed("capture"):
+        draws = draws[grasps_every_sample(region, tsr, draws, samples)]
+    if not len(draws):
+        return draws
+    ranked = np.array(push_headings(ctx, arm.kinematics.shoulder, name, profile.pusher.bounds[3]))
+    rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
+    return draws[np.lexsort((np.abs(draws[:, 1]), rank))]
+
+
+def _distinct(
+    draws: np.ndarray, found: list[float], step_deg: float
+) -> Iterator[tuple[float, float, float]]:
+    """At most TSR_IK_TRIES draws, skipping headings near one already tried (a pose from nearly
+    the same direction fails the same way) or near one that gave a grasp (``found``, which the
+    caller extends as grasps are found)."""
+    tried: list[float] = []
+    for heading, lateral, depth in draws:
+        if len(tried) >= TSR_IK_TRIES:
+            return
+        near_found = any(abs(heading - h) < math.radians(step_deg) for h in found)
+        near_tried = any(abs(heading - h) < TSR_SPREAD for h in tried)
+        if near_found or near_tried:
+            continue
+        tried.append(float(heading))
+        yield float(heading), float(lateral), float(depth)

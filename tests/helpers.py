@@ -1,17 +1,47 @@
-"""HERB loaded in a bare pybullet client with name -> index maps: the reference the URDF,
-kinematics and collision tests compare against."""
+"""Helpers shared by the tests: scene dicts and HERB in a bare pybullet client."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from clutter_gym.model import herb as hm
+
+NEAR = (0.95, -0.25, 0.0)
+"""In easy reach of the right arm."""
+OUT_OF_REACH = (1.33, 0.65, 0.0)
+"""The table's far left corner: no grasp reaches it."""
+
+
+def two_objects() -> dict[str, Any]:
+    """A valid table scene: the goal can and a large box beside it."""
+    return {
+        "format": "clutter-gym-scene/1",
+        "surface": "table",
+        "objects": [
+            {"name": "can", "kind": "soda_can", "pose": [0.90, -0.2, 0.0]},
+            {"name": "box", "kind": "large_box", "pose": [0.95, -0.45, 0.0]},
+        ],
+        "goal": {"object": "can"},
+        "noise": "sigma2",
+    }
+
+
+def lone_can(noise: str, pose: tuple[float, float, float] = NEAR) -> dict[str, Any]:
+    """A scene with the goal can ``red_can`` alone at ``pose``, detected with ``noise``."""
+    return {
+        "format": "clutter-gym-scene/1",
+        "surface": "table",
+        "objects": [{"name": "red_can", "kind": "soda_can", "pose": list(pose)}],
+        "goal": {"object": "red_can"},
+        "noise": noise,
+    }
 
 
 def transform(position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:

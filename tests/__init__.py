@@ -1,0 +1,1 @@
+"""The clutter-gym test suite (a package, so helpers import as `tests.helpers`)."""

@@ -1,0 +1,80 @@
+"""The layers import downward only (agents -> planners -> clutter_gym), the shared model and
+the planners never load pybullet, and no planner module grows past what a newcomer can read."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYERS = ("clutter_gym", "planners", "agents")
+"""Bottom to top: a package may import its own and the ones before it, never those after."""
+PYBULLET_FREE = ("clutter_gym.model", "planners")
+"""What the planners stand on: importing these never loads a simulator."""
+MAX_PLANNER_MODULE_LINES = 600
+
+
+def _module(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """(line, module) of every absolute import of a source file, at any depth."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append((node.lineno, node.module))
+    return found
+
+
+SOURCES = sorted(p for layer in LAYERS for p in (ROOT / layer).rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_imports_run_downward(path: Path) -> None:
+    module = _module(path)
+    layer = LAYERS.index(module.split(".")[0])
+    for line, imported in _imports(path):
+        top = imported.split(".")[0]
+        if top in LAYERS:
+            assert LAYERS.index(top) <= layer, (
+                f"{path.relative_to(ROOT)}:{line}: {module} imports {imported}, a layer above it"
+            )
+        if module.startswith(PYBULLET_FREE):
+            assert top not in ("pybullet", "pybullet_utils"), f"{module}:{line} imports {top}"
+            inside = imported.startswith(("clutter_gym.model", "planners")) or top not in LAYERS
+            assert inside, (
+                f"{path.relative_to(ROOT)}:{line}: {module} imports {imported}; the planners and "
+                "the model stand on clutter_gym.model only (the env and simulator are above)"
+            )
+
+
+def test_planners_and_the_model_never_load_pybullet() -> None:
+    modules = sorted(
+        _module(p) for p in SOURCES if _module(p).startswith(PYBULLET_FREE) and p.stem != "__main__"
+    )
+    code = (
+        "import importlib, sys\n"
+        f"for name in {modules!r}:\n"
+        "    importlib.import_module(name)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pybullet', 'pybullet_utils')))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    assert done.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize(
+    "path", sorted((ROOT / "planners").rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT))
+)
+def test_planner_modules_stay_readable(path: Path) -> None:
+    lines = len(path.read_text().splitlines())
+    assert lines <= MAX_PLANNER_MODULE_LINES, f"{path.relative_to(ROOT)} has {lines} lines"
