@@ -54,10 +54,8 @@ def draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any)
     if footprint.shape == "circle":
         ax.add_patch(CirclePatch((x, y), footprint.radius, fill=False, **style))
         return
-    hx, hy = footprint.half_extents
-    corners = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
-    c, s = np.cos(theta), np.sin(theta)
-    ax.add_patch(PolygonPatch(corners @ np.array([[c, s], [-s, c]]) + [x, y], fill=False, **style))
+    corners = np.array(footprint.corners_xy((float(x), float(y), float(theta))))
+    ax.add_patch(PolygonPatch(corners, fill=False, **style))
 
 
 def check_validation(report: object, source: Path) -> dict[str, Any]:

@@ -14,6 +14,7 @@ import numpy as np
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.trajectory import Segment, Trajectory
+from clutter_gym.model.transforms import rotation_2d
 from planners.actions.arm import Arm, Free
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
@@ -168,9 +169,8 @@ def carried_poses(arm: Arm, path: np.ndarray, in_hand: np.ndarray) -> np.ndarray
     stages = []
     for k in rows:
         turn = yaw[k] - yaw[0]
-        c, s = math.cos(turn), math.sin(turn)
         rel = in_hand[:, :2] - xy[0]
-        moved = xy[k] + rel @ np.array([[c, s], [-s, c]])
+        moved = xy[k] + rel @ rotation_2d(turn).T
         stages.append(np.column_stack([moved, in_hand[:, 2] + turn]))
     return np.stack(stages) if stages else np.empty((0, len(in_hand), 3))
 
