@@ -88,7 +88,8 @@ PAPER_SUITE_SIZE = 10
 PAPER_SUITE_SEED = 1000
 
 _OBJECT_COUNTS: dict[str, tuple[int, int]] = {"none": (1, 1), "medium": (2, 3), "high": (3, 4)}
-_GOAL_KINDS = tuple(kind for kind, spec in OBJECTS.items() if spec.graspable and spec.liftable)
+GOAL_KINDS = tuple(kind for kind, spec in OBJECTS.items() if spec.graspable and spec.liftable)
+"""Kinds a generated scene's goal can be: graspable and liftable."""
 _CLUTTER_WEIGHTS: dict[str, float] = {
     "soda_can": 3.0,
     "juice_bottle": 3.0,
@@ -502,8 +503,10 @@ def generate_scene(
     seed: int,
     surface: str = "table",
     noise: str | tuple[float, float] = DEFAULT_NOISE,
+    goal_kind: str | None = None,
 ) -> Scene:
-    """A random scene at one of the paper's clutter levels, reproducible from ``seed``.
+    """A random scene at one of the paper's clutter levels, reproducible from ``seed``;
+    ``goal_kind`` fixes the goal object's kind (a curriculum), else it is drawn.
 
     none: the goal object alone.  medium: 2–3 objects, every footprint gap >= 0.10 m.
     high: 3–4 objects, each within 0.01–0.05 m of another (the goal has such a neighbour)
@@ -512,6 +515,8 @@ def generate_scene(
     """
     if level not in LEVELS:
         raise invalid("level", level, allowed(LEVELS))
+    if goal_kind is not None and goal_kind not in GOAL_KINDS:
+        raise invalid("goal_kind", goal_kind, allowed(GOAL_KINDS))
     world = _surface(surface, "surface")
     rng = np.random.default_rng(seed)
     kinds = list(_CLUTTER_WEIGHTS)
@@ -519,7 +524,8 @@ def generate_scene(
     low, high = _OBJECT_COUNTS[level]
     for _ in range(_SCENE_ATTEMPTS):
         count = int(rng.integers(low, high + 1))
-        chosen = [str(rng.choice(_GOAL_KINDS))]
+        drawn = str(rng.choice(GOAL_KINDS))  # drawn even when fixed: the same stream after it
+        chosen = [goal_kind or drawn]
         chosen += [str(k) for k in rng.choice(kinds, size=count - 1, p=weights / weights.sum())]
         placed: list[ObjectPlacement] = []
         counters: dict[str, int] = {}
