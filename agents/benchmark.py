@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
 import statistics
@@ -32,19 +33,28 @@ from agents.execute import WAYPOINTS, detect_scene, execute_trial, plan_from_det
 from agents.jobs import JobSpec, config_digest, run_jobs
 from agents.records import BenchmarkRecord, ExecutionSummary, PlanFacts
 from clutter_gym.model.files import atomic_write_text
-from clutter_gym.model.scene import load_scene, resolve_noise, shipped_scene
+from clutter_gym.model.noise import resolve_noise
+from clutter_gym.model.scene import (
+    PERTURB_SHIFT,
+    PERTURB_TURN,
+    Scene,
+    load_scene,
+    perturbed,
+    shipped_scene,
+)
 from planners.actions.settings import PlannerSettings
 from planners.rearrange import planner_kind
 
 TABLE1_NOISES = ("sigma1", "sigma2", "sigma3", "sigma4")
 CLUTTER_LEVELS = ("none", "medium", "high")
+PERTURBED_VARIANTS = 10
+"""Variants of each figure layout in the perturbed suite (issue: at least 10)."""
 FIGURE_SCENES = (
     "figures/fig3_can_box_dumbbell",
     "figures/fig16_shelf_can_behind_box",
     "figures/fig2_high_uncertainty",
     "can_behind_poptarts",
 )
-BACKENDS = ("local", "ray")
 
 PAPER_TABLE1: dict[tuple[str, str], tuple[tuple[int, float], ...]] = {
     ("tsr", "none"): ((10, 0.01), (9, 0.52), (0, 0.86), (0, 0.86)),
@@ -62,7 +72,7 @@ time [s]) per (planner, clutter level), at sigma1-sigma4. Reference data for the
 class Case:
     """One scene at one noise level; ``group`` is the clutter level or the figure."""
 
-    scene: Path  # the scene JSON
+    scene: Scene
     label: str  # e.g. "high_03"
     group: str
     noise: str
@@ -100,7 +110,7 @@ class Job:
 
 def table1_suite() -> Suite:
     cases = tuple(
-        Case(shipped_scene(f"paper/{level}_{k:02d}"), f"{level}_{k:02d}", level, noise)
+        Case(load_scene(shipped_scene(f"paper/{level}_{k:02d}")), f"{level}_{k:02d}", level, noise)
         for level in CLUTTER_LEVELS
         for k in range(10)
         for noise in TABLE1_NOISES
@@ -113,25 +123,48 @@ def table1_suite() -> Suite:
     )
 
 
-def fig15_suite() -> Suite:
+def _figure_cases(variants: int) -> tuple[Case, ...]:
+    """The figure scenes at their own noise: as drawn (``variants`` 0), or that many seeded
+    perturbed variants of each (`clutter_gym.model.scene.perturbed`)."""
     cases = []
     for name in FIGURE_SCENES:
         path = shipped_scene(name)
-        noise = load_scene(path).noise
-        if not isinstance(noise, str):
+        scene = load_scene(path)
+        if not isinstance(scene.noise, str):
             raise ValueError(f"{path}: noise must be a level name for the suite")
-        label = name.split("/")[-1]
-        cases.append(Case(path, label, label, noise))
+        figure = name.split("/")[-1]
+        if not variants:
+            cases.append(Case(scene, figure, figure, scene.noise))
+        for k in range(variants):
+            cases.append(Case(perturbed(scene, k), f"{figure}~{k:02d}", figure, scene.noise))
+    return tuple(cases)
+
+
+def fig15_suite() -> Suite:
     return Suite(
         "fig15",
-        "Pushing vs pick-and-place (§3.2.1) on the figure scenes: Figs. 2, 3-5, 16 and a can "
-        "behind a poptart box",
-        tuple(cases),
+        "Pushing vs pick-and-place (§3.2.1) on the figure scenes: "
+        + ", ".join(n.split("/")[-1] for n in FIGURE_SCENES),
+        _figure_cases(0),
         ("pushing", "pick-and-place"),
     )
 
 
-SUITES: dict[str, Callable[[], Suite]] = {"table1": table1_suite, "fig15": fig15_suite}
+def perturbed_suite() -> Suite:
+    return Suite(
+        "perturbed",
+        f"The figure layouts moved by up to {PERTURB_SHIFT:g} m and turned by up to "
+        f"{math.degrees(PERTURB_TURN):g} deg, {PERTURBED_VARIANTS} seeded variants each",
+        _figure_cases(PERTURBED_VARIANTS),
+        ("pushing", "pick-and-place"),
+    )
+
+
+SUITES: dict[str, Callable[[], Suite]] = {
+    "table1": table1_suite,
+    "fig15": fig15_suite,
+    "perturbed": perturbed_suite,
+}
 
 
 def get_suite(name: str) -> Suite:
@@ -179,7 +212,7 @@ def _crashed(job: Job, error: str) -> dict[str, Any]:
 
 
 def _plan_and_execute(job: Job) -> BenchmarkRecord:
-    scene = replace(load_scene(job.case.scene), noise=job.case.noise)
+    scene = replace(job.case.scene, noise=job.case.noise)
     rng = np.random.default_rng(job.case_seed)
     detection = detect_scene(scene, rng)
     settings = PlannerSettings(time_budget=job.time_budget, seed=job.case_seed)

@@ -74,7 +74,6 @@ def theta_grid(footprint: Footprint, settings: CaptureSettings) -> np.ndarray:
     return np.arange(settings.box_thetas) * (np.pi / settings.box_thetas)
 
 
-
 # --------------------------------------------------------------------------------------------
 # Building
 # --------------------------------------------------------------------------------------------

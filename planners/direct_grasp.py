@@ -16,8 +16,9 @@ import numpy as np
 from clutter_gym.model import herb as hm
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.reachability import grasp_height, tcp_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
-from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT, grasp_height, tcp_pose
+from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT
 
 PREGRASP_DISTANCE = 0.12  # m behind the object centre along the approach
 HOVER_HEIGHT = 0.20  # m above the pregrasp for the transit from home

@@ -35,6 +35,7 @@ scene across the approach axis (y -> -y, theta -> -theta in the hand frame).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -188,7 +189,10 @@ class PushGraspProfile:
         return self.proximal / hm.HAND_PROXIMAL_RANGE[1]
 
 
+@functools.cache
 def push_grasp_profile(aperture: float) -> PushGraspProfile:
+    """The hand's cross-section preshaped to ``aperture`` (cached: the planner asks for the
+    same few apertures thousands of times)."""
     q = proximal_for_aperture(aperture)
     polygons, circles = _hand_shapes(q)
     return PushGraspProfile(
@@ -211,6 +215,7 @@ class SweepProfile:
     span: tuple[float, float]
 
 
+@functools.cache
 def sweep_profile(aperture: float = MAX_APERTURE) -> SweepProfile:
     q = proximal_for_aperture(aperture)
     polygons, circles = _hand_shapes(q)

@@ -47,7 +47,10 @@ class PlannerKind:
 
 PLANNERS: dict[str, PlannerKind] = {
     "pushing": PlannerKind(
-        ("push-grasp", "sweep"), True, "Rearrange with push-grasp, sweep and GoTo (the paper's)"
+        ("push-grasp", "sweep", "static-grasp"),
+        True,
+        "Rearrange with the paper's action library: push-grasp, sweep, PickUp (of the goal "
+        "and of obstacles) and GoTo",
     ),
     "pick-and-place": PlannerKind(
         ("static-grasp",), True, "Rearrange with PickUp as a direct grasp and GoTo (§3.2.1)"

@@ -13,10 +13,10 @@ from pybullet_utils.bullet_client import BulletClient
 
 from clutter_gym.model import herb as hm
 
-NEAR = (0.95, -0.25, 0.0)
-"""In easy reach of the right arm."""
-OUT_OF_REACH = (1.33, 0.65, 0.0)
-"""The table's far left corner: no grasp reaches it."""
+NEAR = (0.70, -0.25, 0.0)
+"""In easy reach of the right arm (18 of 24 headings reach it, docs/reachability_table.png)."""
+OUT_OF_REACH = (1.15, 0.68, 0.0)
+"""The table's far left corner: no heading reaches it."""
 
 
 def two_objects() -> dict[str, Any]:
@@ -25,8 +25,8 @@ def two_objects() -> dict[str, Any]:
         "format": "clutter-gym-scene/1",
         "surface": "table",
         "objects": [
-            {"name": "can", "kind": "soda_can", "pose": [0.90, -0.2, 0.0]},
-            {"name": "box", "kind": "large_box", "pose": [0.95, -0.45, 0.0]},
+            {"name": "can", "kind": "soda_can", "pose": [0.72, -0.2, 0.0]},
+            {"name": "box", "kind": "large_box", "pose": [0.76, -0.45, 0.0]},
         ],
         "goal": {"object": "can"},
         "noise": "sigma2",

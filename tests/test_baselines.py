@@ -13,7 +13,7 @@ from clutter_gym.model import herb as hm
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.noise import NOISE_LEVELS
 from clutter_gym.model.objects import get_object
-from clutter_gym.model.scene import load_scene
+from clutter_gym.model.scene import Scene, load_scene, scene_from_dict
 from clutter_gym.model.world import TABLE
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures, push_grasp_region
@@ -21,28 +21,35 @@ from planners.hand2d import push_grasp_profile
 from planners.rearrange import Plan, plan_retrieval
 from planners.tsr import GraspTSR, grasps_every_sample
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
+from tests.helpers import lone_can
 
 CAN = get_object("soda_can")
+LONE_CAN = scene_from_dict(lone_can("sigma1"))
+"""The paper's no-clutter case with a can (the committed none suite draws other kinds too)."""
 
 
-def beliefs(scene: str, noise: str) -> list[ObjectBelief]:
+def _scene(scene: str | Scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
     text = resources.files("clutter_gym").joinpath(f"scenes/{scene}.json").read_text()
+    return load_scene(json.loads(text))
+
+
+def beliefs(scene: str | Scene, noise: str) -> list[ObjectBelief]:
     sigma = NOISE_LEVELS[noise]
     out = []
-    for o in load_scene(json.loads(text)).objects:
+    for o in _scene(scene).objects:
         rng = np.random.default_rng(zlib.crc32(o.name.encode()))
         samples = sample_poses(np.array(o.pose), sigma, sample_count(sigma), rng)
         out.append(ObjectBelief(o.name, get_object(o.kind), o.pose, samples))
     return out
 
 
-def plan(scene: str, noise: str, planner: str) -> Plan:
+def plan(scene: str | Scene, noise: str, planner: str) -> Plan:
     bs = beliefs(scene, noise)
-    goal = json.loads(resources.files("clutter_gym").joinpath(f"scenes/{scene}.json").read_text())[
-        "goal"
-    ]["object"]
+    goal = _scene(scene).goal.object
     settings = PlannerSettings(time_budget=120.0)  # far above these plans: deterministic
-    return plan_retrieval(TABLE, bs, goal, hm.RIGHT_ARM_HOME, settings, planner=planner)
+    return plan_retrieval(TABLE, bs, goal, hm.RIGHT_ARM_START, settings, planner=planner)
 
 
 def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
@@ -60,17 +67,17 @@ def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
 
 @pytest.mark.parametrize("noise", ["sigma1", "sigma2"])
 def test_tsr_grasps_a_lone_can_at_low_noise(noise: str) -> None:
-    result = plan("paper/none_00", noise, "tsr")
+    result = plan(LONE_CAN, noise, "tsr")
     assert result.success, result.blocked_by
     assert [s.result.action for s in result.steps] == ["pickup"]
 
 
 def test_tsr_fails_at_sigma3_because_no_static_pose_grasps_every_sample() -> None:
-    result = plan("paper/none_00", "sigma3", "tsr")
+    result = plan(LONE_CAN, "sigma3", "tsr")
     assert not result.success
     assert "no hand pose in the TSR grasps every uncertainty sample" in result.blocked_by[0]
     # The push-grasp handles the same uncertainty by pushing (Table 1: PG 10/10 at sigma3).
-    assert plan("paper/none_00", "sigma3", "pg").success
+    assert plan(LONE_CAN, "sigma3", "pg").success
 
 
 def test_pg_never_moves_an_obstacle_where_pushing_sweeps_it() -> None:

@@ -120,7 +120,7 @@ def test_a_crashing_job_is_marked_failed_and_the_run_goes_on(tmp_path: Path) -> 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--suite", "table2"], "invalid choice: 'table2' (choose from 'table1', 'fig15')"),
+        (["--suite", "table2"], "invalid choice: 'table2' (choose from 'table1', 'fig15'"),
         (["--suite", "table1", "--planners", "tsr,rrt"], "pushing, pick-and-place, pg, tsr"),
         (["--suite", "table1", "--backend", "dask"], "invalid choice: 'dask' (choose from"),
         (["--suite", "table1", "--noises", "sigma9"], "has sigma1, sigma2, sigma3, sigma4"),
@@ -145,3 +145,11 @@ def test_suites_hold_the_papers_cases() -> None:
         "fig2_high_uncertainty": "fig2",
         "can_behind_poptarts": "sigma2",
     }
+    perturbed = get_suite("perturbed")
+    assert len(perturbed.cases) == 10 * len(fig15.cases)
+    assert {c.group for c in perturbed.cases} == {c.label for c in fig15.cases}
+    by_label = {c.label: c.scene for c in fig15.cases}
+    for case in perturbed.cases:  # moved and turned, but the same objects in the same roles
+        original = by_label[case.group]
+        assert case.scene != original
+        assert [o.name for o in case.scene.objects] == [o.name for o in original.objects]

@@ -23,8 +23,8 @@ from clutter_gym.model.collision import (
 from clutter_gym.model.herb import HandCommand, hand_targets
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose
+from clutter_gym.model.reachability import approach_rotation
 from clutter_gym.model.world import TABLE
-from planners.actions.grasp_geometry import approach_rotation
 from tests.helpers import HerbBullet, load_herb, transform
 
 CAN_XY = (0.90, -0.30)

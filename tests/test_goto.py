@@ -12,8 +12,8 @@ from clutter_gym.model.collision import CollisionChecker, interpolate, make_chec
 from clutter_gym.model.herb import RIGHT_ARM_HOME
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import get_object
+from clutter_gym.model.reachability import approach_rotation
 from clutter_gym.model.world import TABLE
-from planners.actions.grasp_geometry import approach_rotation
 from planners.goto import GoToResult, plan_goto, upright_hand
 
 KIN = ArmKinematics("right")

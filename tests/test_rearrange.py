@@ -201,10 +201,10 @@ def test_same_seed_same_plan() -> None:
 def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None:
     """When the straight pull into the goal strip is blocked, PickUp carries the object with
     the constrained GoTo: level hand, object poses following the TCP."""
+    from clutter_gym.model.reachability import approach_rotation
     from clutter_gym.model.world import SHELF
     from planners.actions.arm import Arm
     from planners.actions.context import PlanningContext
-    from planners.actions.grasp_geometry import approach_rotation
     from planners.actions.hand_in import carried_poses, carry_upright
 
     can = belief("can", "soda_can", (1.0, -0.15, 0.0))

@@ -31,7 +31,7 @@ SHORT = 400
 
 
 def _shelf(pose: list[float]) -> dict[str, Any]:
-    """A can alone on the shelf; the default goal region is the front strip x [0.72, 0.85]."""
+    """A can alone on the shelf; the default goal region is the front strip x [0.48, 0.58]."""
     d = two_objects()
     d["surface"] = "shelf"
     d["objects"] = [{"name": "can", "kind": "soda_can", "pose": pose}]
@@ -201,8 +201,8 @@ def test_scene_noise_is_stored_as_a_name_or_a_pair() -> None:
 @pytest.mark.parametrize(
     ("region", "field"),
     [
-        ({"x": [0.0, 0.5], "y": [-0.5, 0.0]}, "goal.region.x"),  # in front of the table
-        ({"x": [0.0, 0.63], "y": [-0.5, 0.0]}, "goal.region.x"),  # touches its front edge
+        ({"x": [0.0, 0.4], "y": [-0.5, 0.0]}, "goal.region.x"),  # in front of the table
+        ({"x": [0.0, 0.45], "y": [-0.5, 0.0]}, "goal.region.x"),  # touches its front edge
         ({"x": [0.7, 0.9], "y": [0.8, 2.0]}, "goal.region.y"),  # left of it
         ({"x": [0.9, 0.9], "y": [-0.5, 0.0]}, "goal.region.x"),  # no area
         ({"x": [0.7, 0.9], "y": [0.0, 0.0]}, "goal.region.y"),
@@ -221,12 +221,12 @@ def test_goal_region_may_reach_past_the_surface() -> None:
 @pytest.mark.parametrize(
     "d",
     [
-        _shelf([0.80, -0.2, 0.0]),  # already in the shelf's front strip
-        _shelf([0.80, 0.05, 0.0]),  # on its edge: the task counts that as inside
+        _shelf([0.53, -0.2, 0.0]),  # already in the shelf's front strip
+        _shelf([0.53, 0.05, 0.0]),  # on its edge: the task counts that as inside
         _with("goal", {"object": "can", "success": "region"}),  # the table's whole top
         _with(
             "goal",
-            {"object": "can", "region": {"x": [0.8, 1.0], "y": [-0.3, 0.0]}, "success": "region"},
+            {"object": "can", "region": {"x": [0.65, 0.8], "y": [-0.3, 0.0]}, "success": "region"},
         ),
     ],
 )
@@ -236,10 +236,10 @@ def test_region_goal_solved_at_reset_is_rejected(d: dict[str, Any]) -> None:
 
 
 def test_region_goal_outside_the_region_is_accepted() -> None:
-    assert scene_from_dict(_shelf([1.0, -0.2, 0.0])).goal.success == "region"
+    assert scene_from_dict(_shelf([0.75, -0.2, 0.0])).goal.success == "region"
     d = _with(
         "goal",
-        {"object": "can", "region": {"x": [0.63, 0.8], "y": [-1.1, 0.7]}, "success": "region"},
+        {"object": "can", "region": {"x": [0.9, 1.1], "y": [-1.1, 0.7]}, "success": "region"},
     )
     assert scene_from_dict(d).goal.success == "region"
 

@@ -1,15 +1,22 @@
-"""The physics validation harness of capture regions: grid, frames, trials, resume."""
+"""The physics validation harness of capture regions: grid, frames, trials, judging, resume."""
 
 from __future__ import annotations
 
+import json
 import math
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from agents import validate_capture as vc
+from agents.capture_figure import capture_figure, check_validation
+from agents.cli import main
 from clutter_gym.env import ClutterRetrieveEnv
-from clutter_gym.model.objects import get_object
+from clutter_gym.model.objects import OBJECTS, get_object
+from clutter_gym.model.world import TABLE
+from planners.capture import sweep_region
 from planners.hand2d import default_aperture
 
 
@@ -23,12 +30,27 @@ def test_grid_covers_at_least_the_requested_trials() -> None:
         vc.grid(can, 0)
 
 
-def test_unknown_or_unliftable_objects_are_rejected() -> None:
+def test_sweep_grid_crosses_the_hand_side_and_the_reach() -> None:
+    can = get_object("soda_can")
+    region = sweep_region(can.footprint)
+    poses = vc.sweep_grid(can, region, 200)
+    lo, hi = region.span
+    assert len(poses) >= 200
+    assert poses[:, 1].min() < lo and poses[:, 1].max() > hi
+    inside = region.query(poses, vc.DISTANCE)[0]
+    assert inside.any() and not inside[poses[:, 0] == poses[:, 0].max()].any()
+
+
+def test_unknown_or_unfit_objects_are_rejected(monkeypatch: pytest.MonkeyPatch) -> None:
     assert vc.resolve_kind("can") == "soda_can"
+    assert vc.resolve_kind("large_box", "sweep") == "large_box"
     with pytest.raises(ValueError, match=r"allowed: .*bottle"):
         vc.resolve_kind("teapot")
     with pytest.raises(ValueError, match="large_box"):
         vc.resolve_kind("large_box")
+    monkeypatch.setitem(OBJECTS, "tippy", replace(get_object("soda_can"), pushable=False))
+    with pytest.raises(ValueError, match="not pushable"):
+        vc.resolve_kind("tippy", "sweep")
 
 
 @pytest.mark.parametrize("rotation", [0.0, 45.0])
@@ -36,11 +58,11 @@ def test_push_frame_maps_to_the_world_along_the_heading(rotation: float) -> None
     spec = get_object("soda_can")
     setup = vc.plan_push(spec, default_aperture(spec.footprint), rotation)
     x, y, theta = vc.world_pose(setup, (0.3, 0.0, 0.1))
-    bx, by, _ = setup.hand_base
+    bx, by = setup.frame.origin
     assert math.atan2(y - by, x - bx) == pytest.approx(math.radians(rotation))
     assert math.hypot(x - bx, y - by) == pytest.approx(0.3)
     assert theta == pytest.approx(math.radians(rotation) + 0.1)
-    assert setup.action.shape == (vc.WAYPOINTS, 9)
+    assert [a.shape for a in setup.actions] == [(vc.WAYPOINTS, 9)]
 
 
 def test_a_centred_can_is_push_grasped_and_a_far_one_is_not() -> None:
@@ -50,6 +72,72 @@ def test_a_centred_can_is_push_grasped_and_a_far_one_is_not() -> None:
     assert vc.run_trial(env, "soda_can", setup, (0.25, 0.0, 0.0)) == "success"
     assert vc.run_trial(env, "soda_can", setup, (0.30, 0.18, 0.0)).startswith("failure")
     env.close()
+
+
+@pytest.mark.parametrize("rotation", [0.0, 45.0])
+def test_left_sweeps_mirror_right_ones_away_from_the_robot(rotation: float) -> None:
+    can = get_object("soda_can")
+    region = sweep_region(can.footprint)
+    poses = np.array([[0.25, 0.05, 0.0]])
+    (right,) = vc.plan_sweeps(can, region, rotation, 1, poses)
+    (left,) = vc.plan_sweeps(can, region, rotation, -1, poses)
+    for setup, approach in ((right, rotation), (left, -rotation)):
+        # The hand's approach axis (the frame's y) along the rotation, mirrored for the left.
+        y_axis = setup.frame.y_axis
+        assert math.degrees(math.atan2(y_axis[1], y_axis[0])) == pytest.approx(approach)
+        assert setup.frame.x_axis[0] >= -1e-9  # never toward the robot
+        assert vc.runnable(can, setup, poses[0]) == ""
+        assert setup.anchor is not None and TABLE.bounds[0] < setup.anchor[0] < TABLE.bounds[1]
+    # Mirror images: ahead along each sweep, with theta mirrored.
+    for setup, turn in ((right, 0.2), (left, -0.2)):
+        x, y, theta = vc.world_pose(setup, (0.3, 0.05, 0.2))
+        assert (np.array([x, y]) - setup.frame.origin) @ setup.frame.x_axis == pytest.approx(0.3)
+        assert theta == pytest.approx(setup.frame.angle + turn)
+
+
+def test_a_can_inside_the_sweep_region_is_carried_and_outside_is_not() -> None:
+    """Clearly inside, clearly beyond the fingertip and clearly beyond the sweep's reach."""
+    can = get_object("soda_can")
+    region = sweep_region(can.footprint)
+    poses = np.array([[0.25, 0.05, 0.0], [0.25, 0.26, 0.0], [0.50, 0.05, 0.0]])
+    assert region.query(poses, vc.DISTANCE)[0].tolist() == [True, False, False]
+    (setup,) = vc.plan_sweeps(can, region, 0.0, 1, poses)
+    env = ClutterRetrieveEnv()
+    inside, beside, beyond = (vc.run_trial(env, "soda_can", setup, p) for p in poses)
+    env.close()
+    assert inside == "success"
+    assert beside.startswith("failure: off the hand's side"), beside
+    assert beyond.startswith("failure: not at the hand, over 5 cm"), beyond
+
+
+def test_the_large_box_is_swept_left_as_in_figure_3() -> None:
+    box = get_object("large_box")
+    region = sweep_region(box.footprint)
+    pose = np.array([[0.40, 0.05, math.pi / 2]])
+    assert region.query(pose, vc.DISTANCE)[0].all()
+    (setup,) = vc.plan_sweeps(box, region, 0.0, -1, pose)
+    env = ClutterRetrieveEnv()
+    assert vc.run_trial(env, "large_box", setup, pose[0]) == "success"
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("end", "outcome"),
+    [
+        (vc.SweepEnd(0.0, 0.05, 0.01, ""), "success"),
+        (vc.SweepEnd(0.004, 0.175, 0.01, ""), "success"),  # within the tolerances
+        (vc.SweepEnd(0.0, 0.05, 0.01, "object toppled"), "failure: object toppled"),
+        (vc.SweepEnd(0.0, 0.05, math.radians(12), ""), "failure: tilted 12 deg"),
+        (vc.SweepEnd(0.0, 0.19, 0.0, ""), "failure: off the hand's side (y = 0.190 m)"),
+        (vc.SweepEnd(math.inf, 0.0, 0.0, ""), "failure: not at the hand, over 5 cm from it"),
+        (
+            vc.SweepEnd(0.009, 0.0, 0.0, "", ("right_wam4",)),
+            "failure: not at the hand, 0.9 cm from it, pushed by right_wam4",
+        ),
+    ],
+)
+def test_a_sweep_succeeds_only_upright_and_against_the_hand(end: vc.SweepEnd, outcome: str) -> None:
+    assert vc.judge_sweep(end, (-0.072, 0.168)) == outcome
 
 
 def test_summary_counts_failures_inside_and_tightness() -> None:
@@ -62,3 +150,41 @@ def test_summary_counts_failures_inside_and_tightness() -> None:
     summary = vc.summarize(trials)
     assert summary["trials"] == 3 and summary["skipped"] == 1
     assert summary["failures_inside"] == 0 and summary["tightness"] == pytest.approx(0.5)
+
+
+def test_sweep_summaries_count_each_side() -> None:
+    trials = [
+        vc.Trial(0, 0.0, (0.2, 0.0, 0.0), True, "success", 1),
+        vc.Trial(1, 0.0, (0.2, 0.0, 0.0), True, "failure: tilted 12 deg", -1),
+        vc.Trial(2, 0.0, (0.5, 0.0, 0.0), False, "success", -1),
+        vc.Trial(3, 0.0, (0.4, 0.0, 0.0), True, "failure: not at the hand, pushed by wam4", 1),
+    ]
+    summary = vc.rotation_summary(trials, "sweep")
+    assert summary["failures_inside"] == 2 and summary["tightness"] == pytest.approx(0.5)
+    assert summary["failures_inside_arm_touched"] == 1
+    assert summary["sides"]["right"]["failures_inside"] == 1
+    assert summary["sides"]["left"]["failures_inside"] == 1
+    assert summary["sides"]["left"]["tightness"] == 0.0
+    assert "sides" not in vc.rotation_summary(trials, "push-grasp")
+
+
+@pytest.mark.slow
+def test_sweep_cli_small_run_resumes_and_draws(tmp_path: Path) -> None:
+    out = tmp_path / "val.json"
+    argv = ["validate-capture", "--object", "can", "--action", "sweep", "--trials", "4"]
+    argv += ["--json", str(out), "--rotations", "0", "--workers", "1"]
+    assert main(argv) == 0
+    report = json.loads(out.read_text())
+    summary = report["rotation_0deg"]
+    assert report["action"] == "sweep" and report["grid_points"] == 4
+    assert summary["trials"] + summary["skipped"] == 8  # every pose with each side
+    assert summary["failures_inside"] == 0 and set(summary["sides"]) == {"right", "left"}
+    log = tmp_path / "val.json.trials.jsonl"
+    lines = log.read_text().count("\n")
+    assert main(argv) == 0  # resumes: nothing to rerun
+    assert log.read_text().count("\n") == lines
+    png = tmp_path / "sweep.png"
+    capture_figure("can", png, check_validation(report, out, "sweep"), action="sweep")
+    assert png.stat().st_size > 0
+    with pytest.raises(ValueError, match="--action sweep"):
+        check_validation(report, out, "push-grasp")

@@ -75,6 +75,12 @@ LEFT_ARM_PARK = np.array([0.64, -1.76, 0.26, 1.96, 1.16, 0.87, 1.43])
 #: near table edge, approach axis (hand z) pointing forward and 40 deg down, finger plane
 #: horizontal. Every joint is >= 0.7 rad from its limits and the mirrored pose fits the left arm.
 RIGHT_ARM_HOME = np.array([3.32, -1.17, -0.27, 2.43, -0.26, -0.59, 1.58])
+#: Where the right arm waits for a task (the env's start, every plan's first configuration): the
+#: home pose with the shoulder 0.65 rad further back and the elbow 0.5 rad more bent (every joint
+#: >= 0.14 rad from its limits), hand_tcp at ~(0.32, -0.27, 1.10), in front of the table's near
+#: edge (x 0.45) and the shelf's opening (x 0.48). Home's hand hangs over the scene at 1.0 m,
+#: where a 0.30 m box on the table (top at 1.035 m) would touch it and the shelf's top board does.
+RIGHT_ARM_START = np.array([3.32, -1.82, -0.27, 2.93, -0.26, -0.59, 1.58])
 
 #: Per joint, -1 if the angle flips sign when the configuration is mirrored between the arms
 #: (axes lying in the robot's xz symmetry plane at zero), +1 otherwise.

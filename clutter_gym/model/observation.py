@@ -1,7 +1,7 @@
-"""The observation of `ClutterRetrieve-v0`, encoded by the env and decoded by every policy here,
-so its layout is written once.
+"""The observations of the env's variants, encoded by the env and decoded by every policy here,
+so their layout is written once.
 
-A Dict of fixed-shape arrays (M = `MAX_OBJECTS` slots):
+`ClutterRetrieve-v0` observes a Dict of fixed-shape arrays (M = `MAX_OBJECTS` slots):
 - arm_joints (7,), arm_velocities (7,): right arm state [rad, rad/s]
 - hand (4,): spread and F1, F2, F3 proximal angles [rad]
 - tcp_pose (7,): position [m] and quaternion (x, y, z, w) of the hand's TCP
@@ -14,6 +14,23 @@ A Dict of fixed-shape arrays (M = `MAX_OBJECTS` slots):
 - goal_region (4,): x_min, x_max, y_min, y_max [m]
 - noise (2,): sigma_xy [m], sigma_theta [rad] of the detections
 - surface (): index into `SURFACES` (0 table, 1 shelf)
+
+The end-effector variants (`ClutterRetrieveEE-v0`, `ClutterRetrieveEEDense-v0`) are
+goal-conditioned (Gymnasium-Robotics' GoalEnv, what stable-baselines3's `HerReplayBuffer`
+needs), a Dict of
+- observation (9M + 29 = 101,) float32: `flatten` of the Dict above, in this order: arm_joints (7),
+  arm_velocities (7), hand (4), tcp_pose (7); per slot the DETECTED (x, y, cos 2 theta,
+  sin 2 theta) (4M: every object of the library looks the same after a half turn, so 2 theta
+  loses nothing and never jumps; zeros in empty slots), object_sizes (3M), object_mask (M), the
+  goal slot one-hot (M), the goal's detected (x, y) minus the TCP's (2), noise (2). Kinds are
+  left out (the sizes tell them apart), and so are goal_region and surface (these variants are
+  table tasks: lift the goal object);
+- achieved_goal (3,) float64: the goal object's detected x, y (this step's detection) and the
+  height z of its base (detections are planar; the height is what lifting changes);
+- desired_goal (3,) float64: the goal's first detected x, y of the episode and the height its
+  base must reach, `LIFT_HEIGHT` (0.10 m) above where it stood.
+float64 goals, as Gymnasium-Robotics has them: the env's reward is `compute_reward` of exactly
+these numbers.
 """
 
 from __future__ import annotations
@@ -57,6 +74,47 @@ def observation_space(max_objects: int = MAX_OBJECTS) -> spaces.Dict:
             "noise": spaces.Box(0.0, reach, (2,), np.float32),
             "surface": spaces.Discrete(len(SURFACES)),
         }
+    )
+
+
+def goal_observation_space(max_objects: int = MAX_OBJECTS) -> spaces.Dict:
+    """The end-effector variants' observation space (module docstring)."""
+    low, high = _flat_bounds(observation_space(max_objects), max_objects)
+    goal = spaces.Box(-WORLD_REACH, WORLD_REACH, (3,), np.float64)
+    return spaces.Dict(
+        {
+            "observation": spaces.Box(low, high, dtype=np.float32),
+            "achieved_goal": goal,
+            "desired_goal": goal,
+        }
+    )
+
+
+def _flat_bounds(space: spaces.Dict, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of `flatten`'s vector, part by part in its order."""
+
+    def box(key: str) -> tuple[np.ndarray, np.ndarray]:
+        part = space[key]
+        assert isinstance(part, spaces.Box)
+        return part.low.ravel(), part.high.ravel()
+
+    reach = WORLD_REACH
+    zeros, ones = np.zeros(m), np.ones(m)
+    parts = [
+        box("arm_joints"),
+        box("arm_velocities"),
+        box("hand"),
+        box("tcp_pose"),
+        (np.tile([-reach, -reach, -1.0, -1.0], m), np.tile([reach, reach, 1.0, 1.0], m)),
+        box("object_sizes"),
+        (zeros, ones),
+        (zeros, ones),
+        (np.full(2, -2.0 * reach), np.full(2, 2.0 * reach)),
+        box("noise"),
+    ]
+    return (
+        np.concatenate([low for low, _ in parts]).astype(np.float32),
+        np.concatenate([high for _, high in parts]).astype(np.float32),
     )
 
 
@@ -105,8 +163,43 @@ def encode_state(
             np.float32
         ),
         "hand": hand_angles.astype(np.float32),
-        "tcp_pose": np.r_[tcp_position, tcp_quaternion].astype(np.float32),
+        "tcp_pose": np.concatenate([tcp_position, tcp_quaternion]).astype(np.float32),
         "object_poses": poses,
+    }
+
+
+def flatten(obs: Observation) -> np.ndarray:
+    """The end-effector variants' `observation` vector (module docstring) of a Dict observation."""
+    poses, mask = obs["object_poses"], obs["object_mask"]
+    goal = int(obs["goal_object"])
+    one_hot = np.zeros(len(mask), dtype=np.float32)
+    one_hot[goal] = 1.0
+    double = 2.0 * poses[:, 2]
+    orientation = np.column_stack([np.cos(double), np.sin(double)]) * mask[:, None]
+    return np.concatenate(
+        [
+            obs["arm_joints"],
+            obs["arm_velocities"],
+            obs["hand"],
+            obs["tcp_pose"],
+            np.column_stack([poses[:, :2], orientation]).ravel(),
+            obs["object_sizes"].ravel(),
+            mask,
+            one_hot,
+            poses[goal, :2] - obs["tcp_pose"][:2],
+            obs["noise"],
+        ]
+    ).astype(np.float32)
+
+
+def encode_goal_observation(
+    obs: Observation, achieved: np.ndarray, desired: np.ndarray
+) -> Observation:
+    """The end-effector variants' observation: `flatten` of the Dict observation and the goals."""
+    return {
+        "observation": flatten(obs),
+        "achieved_goal": np.array(achieved, dtype=np.float64),
+        "desired_goal": np.array(desired, dtype=np.float64),
     }
 
 

@@ -6,10 +6,10 @@ A scene is stored as JSON (format ``clutter-gym-scene/1``)::
       "format": "clutter-gym-scene/1",
       "surface": "table",
       "objects": [
-        {"name": "can", "kind": "soda_can", "pose": [0.90, -0.20, 0.0]},
-        {"name": "box", "kind": "large_box", "pose": [1.08, -0.25, 1.5708]}
+        {"name": "can", "kind": "soda_can", "pose": [0.85, -0.20, 0.0]},
+        {"name": "box", "kind": "large_box", "pose": [0.65, -0.20, 1.5708]}
       ],
-      "goal": {"object": "can", "region": {"x": [0.63, 1.37], "y": [-1.125, 0.725]},
+      "goal": {"object": "can", "region": {"x": [0.45, 1.19], "y": [-1.125, 0.725]},
                "success": "lift"},
       "noise": "sigma2"
     }
@@ -49,7 +49,7 @@ import json
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -60,6 +60,7 @@ from clutter_gym.model.fields import allowed, invalid, mapping, numbers, shown, 
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.noise import DEFAULT_NOISE, NOISE_FORMS, resolve_noise
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose, footprint_gap, get_object
+from clutter_gym.model.transforms import rotation_2d
 from clutter_gym.model.world import SURFACES, Region, Surface
 
 SCENE_FORMAT = "clutter-gym-scene/1"
@@ -75,9 +76,11 @@ PENETRATION_TOLERANCE = 1e-4
 
 MEDIUM_MIN_GAP = 0.10
 """Medium clutter: every pair of footprints is at least this far apart (m)."""
-HIGH_GAP = (0.01, 0.05)
+HIGH_GAP = (0.02, 0.05)
 """High clutter: each object is within this footprint-gap range (m) of a neighbour, and no
 two footprints are closer than its lower end."""
+SUPPORT_MARGIN = 0.02
+"""Generated footprints stay this far inside the support's edges or walls (m)."""
 POSE_DECIMALS = 4
 """Generated poses are rounded (0.1 mm, 0.1 mrad) so the committed JSON stays readable."""
 
@@ -85,7 +88,8 @@ SCENES_DIR = Path(__file__).parents[1] / "scenes"
 """The scenes shipped with the package: the demo, the paper's figures and suites."""
 PAPER_SUITE_DIR = SCENES_DIR / "paper"
 PAPER_SUITE_SIZE = 10
-PAPER_SUITE_SEED = 1000
+PAPER_SUITE_SEED = 0
+"""The suites are the generator's first seeds (0-9): never chosen by any planner's outcome."""
 
 _OBJECT_COUNTS: dict[str, tuple[int, int]] = {"none": (1, 1), "medium": (2, 3), "high": (3, 4)}
 GOAL_KINDS = tuple(kind for kind, spec in OBJECTS.items() if spec.graspable and spec.liftable)
@@ -429,22 +433,21 @@ def _inside(aabb: tuple[float, float, float, float], region: Region) -> bool:
     return x_min <= aabb[0] and aabb[1] <= x_max and y_min <= aabb[2] and aabb[3] <= y_max
 
 
+def _shrunk(bounds: tuple[float, float, float, float], margin: float) -> Region:
+    x_min, x_max, y_min, y_max = bounds
+    return (x_min + margin, x_max - margin), (y_min + margin, y_max - margin)
+
+
 def _overlaps(aabb: tuple[float, float, float, float], region: Region) -> bool:
     (x_min, x_max), (y_min, y_max) = region
     return aabb[0] < x_max and x_min < aabb[1] and aabb[2] < y_max and y_min < aabb[3]
 
 
-def _uniform_pose(spec: ObjectSpec, workspace: Region, rng: np.random.Generator) -> Pose | None:
-    """A uniform pose with the footprint inside the workspace, or None if the drawn yaw
-    does not fit (a long box in a shallow shelf)."""
+def _uniform_pose(workspace: Region, rng: np.random.Generator) -> Pose:
+    """A pose with its centre uniform in the workspace and a uniform yaw."""
     (x_min, x_max), (y_min, y_max) = workspace
     theta = rng.uniform(-math.pi, math.pi)
-    ax0, ax1, ay0, ay1 = spec.footprint.aabb((0.0, 0.0, theta))
-    if ax1 - ax0 > x_max - x_min or ay1 - ay0 > y_max - y_min:
-        return None
-    return _round_pose(
-        rng.uniform(x_min - ax0, x_max - ax1), rng.uniform(y_min - ay0, y_max - ay1), theta
-    )
+    return _round_pose(rng.uniform(x_min, x_max), rng.uniform(y_min, y_max), theta)
 
 
 def _pose_at_gap(
@@ -472,19 +475,24 @@ def _place(
     level: str,
     spec: ObjectSpec,
     placed: list[ObjectPlacement],
-    workspace: Region,
+    world: Surface,
     avoid: Region | None,
     rng: np.random.Generator,
 ) -> Pose | None:
-    """Sample a pose for the next object that keeps the level's clutter properties and
-    keeps its footprint out of ``avoid``; None after a bounded number of attempts."""
+    """Sample a pose for the next object that keeps the level's clutter properties, its
+    centre in the surface's workspace, its footprint on the surface and out of ``avoid``; None
+    after a bounded number of attempts."""
+    workspace = world.workspace
+    (x0, x1), (y0, y1) = workspace
     for _ in range(_PLACEMENT_ATTEMPTS):
         if level == "high" and placed:
             anchor = placed[int(rng.integers(len(placed)))]
-            pose: Pose | None = _pose_at_gap(spec, anchor, rng.uniform(*HIGH_GAP), rng)
+            pose = _pose_at_gap(spec, anchor, rng.uniform(*HIGH_GAP), rng)
         else:
-            pose = _uniform_pose(spec, workspace, rng)
-        if pose is None or not _inside(spec.footprint.aabb(pose), workspace):
+            pose = _uniform_pose(workspace, rng)
+        if not (x0 <= pose[0] <= x1 and y0 <= pose[1] <= y1):
+            continue
+        if not _inside(spec.footprint.aabb(pose), _shrunk(world.bounds, SUPPORT_MARGIN)):
             continue
         if avoid is not None and _overlaps(spec.footprint.aabb(pose), avoid):
             continue
@@ -508,10 +516,13 @@ def generate_scene(
     """A random scene at one of the paper's clutter levels, reproducible from ``seed``;
     ``goal_kind`` fixes the goal object's kind (a curriculum), else it is drawn.
 
-    none: the goal object alone.  medium: 2–3 objects, every footprint gap >= 0.10 m.
-    high: 3–4 objects, each within 0.01–0.05 m of another (the goal has such a neighbour)
-    and none closer than 0.01 m.  The goal is a graspable, liftable kind; all objects lie
-    inside the surface's workspace.
+    The paper's levels (§3.1.2) in measurable terms: none, the goal object alone; medium,
+    2-3 objects "placed apart", every footprint gap >= `MEDIUM_MIN_GAP` (0.10 m: the open
+    hand fits between any two); high, 3-4 objects "placed close to each other", each within
+    `HIGH_GAP` (0.02-0.05 m: a few centimetres, more than a fingertip's 1.9 cm thickness) of
+    another, the goal first among them, and no two closer. The goal is a graspable, liftable
+    kind; every object's centre lies in the surface's workspace (where the arm is dexterous,
+    `clutter_gym.model.reachability`) and its footprint on the surface.
     """
     if level not in LEVELS:
         raise invalid("level", level, allowed(LEVELS))
@@ -532,7 +543,7 @@ def generate_scene(
         for kind in chosen:
             # The goal must start outside a "region" goal, or the task is solved at reset.
             avoid = world.default_goal_region if not placed and world.success == "region" else None
-            pose = _place(level, get_object(kind), placed, world.workspace, avoid, rng)
+            pose = _place(level, get_object(kind), placed, world, avoid, rng)
             if pose is None:
                 break
             name = f"{kind}_{counters.get(kind, 0)}"
@@ -544,6 +555,40 @@ def generate_scene(
     raise RuntimeError(
         f"could not generate a {level!r} clutter scene on the {surface} with seed {seed} "
         f"in {_SCENE_ATTEMPTS} attempts; the workspace is too small for these objects"
+    )
+
+
+# --- perturbed layouts ---------------------------------------------------------------------
+
+PERTURB_SHIFT = 0.08
+"""m: a perturbed layout moves by up to this along x and y."""
+PERTURB_TURN = math.radians(30.0)
+"""rad: a perturbed layout turns by up to this about its centroid."""
+_PERTURB_ATTEMPTS = 200
+
+
+def perturbed(scene: Scene, seed: int) -> Scene:
+    """The scene's layout moved rigidly (every object together) by a seeded random shift of up
+    to `PERTURB_SHIFT` and turn of up to `PERTURB_TURN` about its centroid, redrawn until
+    every footprint stays on the support: a variant that keeps what the layout means (which
+    object stands in front of which) but none of its exact numbers."""
+    rng = np.random.default_rng(seed)
+    poses = np.array([o.pose for o in scene.objects], dtype=float)
+    centroid = poses[:, :2].mean(axis=0)
+    for _ in range(_PERTURB_ATTEMPTS):
+        shift = rng.uniform(-PERTURB_SHIFT, PERTURB_SHIFT, 2)
+        turn = float(rng.uniform(-PERTURB_TURN, PERTURB_TURN))
+        xy = (poses[:, :2] - centroid) @ rotation_2d(turn).T + centroid + shift
+        objects = tuple(
+            replace(o, pose=_round_pose(float(p[0]), float(p[1]), float(p[2]) + turn))
+            for o, p in zip(scene.objects, np.column_stack([xy, poses[:, 2]]), strict=True)
+        )
+        try:
+            return replace(scene, objects=objects)
+        except ValueError:  # off the support, or a region goal already met: draw again
+            continue
+    raise RuntimeError(
+        f"no perturbed layout stays on the {scene.surface} in {_PERTURB_ATTEMPTS} draws"
     )
 
 
@@ -580,7 +625,8 @@ def paper_suite(level: Level, surface: str = "table") -> list[Scene]:
 
 
 def write_paper_suite(directory: str | os.PathLike[str]) -> list[Path]:
-    """Generate the suite for every surface and level (seeds 1000–1009) into ``directory``."""
+    """Generate the suite for every surface and level into ``directory``: the generator's
+    first seeds, from `PAPER_SUITE_SEED` on."""
     written = []
     for surface in SURFACES:
         for level in LEVELS:

@@ -28,7 +28,7 @@ def wrap_angle(theta: np.ndarray) -> np.ndarray:
     return (np.asarray(theta) + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def rotation_2d(theta: np.ndarray) -> np.ndarray:
+def rotation_2d(theta: np.ndarray | float) -> np.ndarray:
     """Planar rotation matrices (..., 2, 2) of angles (...)."""
     c, s = np.cos(theta), np.sin(theta)
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)

@@ -61,14 +61,18 @@ class Surface:
 
 
 def _table() -> Surface:
-    """HERB's table: a 0.74 x 1.85 m top, 0.03 m thick, on four 0.05 m square legs.
+    """HERB's table: a 0.74 x 1.85 m top, 0.03 m thick, on four 0.05 m square legs, its near
+    edge 0.45 m in front of HERB's base frame (0.30 m clear of the Segway's front).
 
-    Centred 1.0 m in front of the robot (HERB's usual set-up). The workspace is where the right
-    arm reaches with a horizontal side grasp from 12 cm back (measured with the IK): HERB's
-    sideways-mounted shoulders cannot point the hand forward closer than about x = 0.75 m.
-    """
+    Placed as the lab placed HERB at a table: close enough that the objects stand in the arm's
+    dexterous workspace (its examples grasp objects 0.62-0.8 m ahead). The reachability map
+    (`clutter_gym.model.reachability`, plotted in docs/reachability_table.png) measures it: a
+    horizontal hand at object height reaches hand_base positions from the near edge to x ~ 0.9;
+    ``workspace``, where scenes put object centres, is the part of the top where an object is
+    graspable from at least 7 of the map's 24 headings (measured: at least 10; the map's test
+    checks it)."""
     top_z, thickness, leg, inset = 0.735, 0.03, 0.05, 0.03
-    x, y = (0.63, 1.37), (-1.125, 0.725)  # centred on (1.00, -0.20)
+    x, y = (0.45, 1.19), (-1.125, 0.725)
     leg_x = ((x[0] + inset, x[0] + inset + leg), (x[1] - inset - leg, x[1] - inset))
     leg_y = ((y[0] + inset, y[0] + inset + leg), (y[1] - inset - leg, y[1] - inset))
     legs = tuple(
@@ -81,7 +85,7 @@ def _table() -> Surface:
         top_z=top_z,
         bounds=(x[0], x[1], y[0], y[1]),
         boxes=(Box.from_bounds(x, y, (top_z - thickness, top_z), _WOOD), *legs),
-        workspace=((0.78, 1.08), (-0.60, 0.15)),
+        workspace=((0.55, 0.88), (-0.60, 0.20)),
         # Success is lifting the goal object; it must be held above the table top, not
         # carried off it, so the region is the whole top.
         default_goal_region=(x, y),
@@ -91,9 +95,17 @@ def _table() -> Surface:
 
 def _shelf() -> Surface:
     """A shelf cubby open towards the robot, on a cabinet; the task is to bring the goal
-    object forward from the back, past the clutter, into the front strip."""
+    object forward from the back, past the clutter, into the front strip.
+
+    Its opening is 0.48 m in front of HERB and it is 0.40 m deep: deep enough for a can behind
+    a large box (Fig. 16), shallow enough that the hand reaches behind the box (Fig. 16: HERB
+    reaches into a shelf). Inside, the reachability map (docs/reachability_shelf.png) grasps an
+    object from at least 7 of 24 headings up to x 0.74 (`workspace`, where scenes put object
+    centres), from 0-13 at x 0.76-0.80 (fewest near the walls) and from none behind that: the
+    last 8 cm before the back wall hold only the far half of an object.
+    """
     top_z, wall, clearance = 0.735, 0.02, 0.45
-    inner_x, inner_y = (0.72, 1.12), (-0.65, 0.25)
+    inner_x, inner_y = (0.48, 0.88), (-0.65, 0.25)
     outer_x = (inner_x[0], inner_x[1] + wall)
     outer_y = (inner_y[0] - wall, inner_y[1] + wall)
     ceiling = top_z + clearance
@@ -109,8 +121,8 @@ def _shelf() -> Surface:
             Box.from_bounds((inner_x[1], outer_x[1]), inner_y, (top_z, ceiling), _WOOD),
             Box.from_bounds(outer_x, outer_y, (ceiling, ceiling + wall), _BOARD),
         ),
-        workspace=((0.74, 1.10), (-0.63, 0.23)),  # the inner area shrunk by 0.02 m
-        default_goal_region=((0.72, 0.85), (-0.45, 0.05)),
+        workspace=((0.56, 0.74), (-0.53, 0.10)),
+        default_goal_region=((0.48, 0.58), (-0.45, 0.05)),
         success="region",
     )
 

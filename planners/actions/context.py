@@ -52,6 +52,7 @@ class PlanningContext:
         self.budget = Budget(settings.time_budget)
         self.failures = FailureLog()
         self._volumes: dict[str, Volume] = {}
+        self._sums: dict[frozenset[str], Volume] = {}
 
     def check_budget(self) -> None:
         self.budget.check()
@@ -65,31 +66,47 @@ class PlanningContext:
         return self._volumes[name]
 
     def objects_volume(self, names: Iterable[str]) -> Volume:
-        """Sum of Volume(i, U(i)) over the named objects (the avoid volume)."""
-        total = Volume()
-        for name in sorted(names):
-            total += self.uncertainty_volume(name)
-        return total
+        """Sum of Volume(i, U(i)) over the named objects (the avoid volume), cached per set of
+        names, so that its convex hulls (`Volume.hulled`, for the arm's checks) are built once."""
+        key = frozenset(names)
+        if key not in self._sums:
+            total = Volume()
+            for name in sorted(key):
+                total += self.uncertainty_volume(name)
+            self._sums[key] = total
+        return self._sums[key]
 
-    def stable(self, name: str, poses: np.ndarray) -> bool:
-        """StablePoses: upright on the surface. On the open table the centre of mass must be
-        over the top (an overhanging box stands); in the shelf the outline must be inside the
-        walls."""
+    def stable_mask(self, name: str, poses: np.ndarray) -> np.ndarray:
+        """StablePoses, per pose: upright on the surface. On the open table the centre of mass
+        must be over the top (an overhanging box stands); in the shelf the outline must be
+        inside the walls."""
         footprint = self.beliefs[name].spec.footprint
         x0, x1, y0, y1 = self.surface.bounds
-        p = np.asarray(poses).reshape(-1, 3)
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)
         if self.surface.name == "table":
             m = TABLE_EDGE_MARGIN
-            return bool(
-                np.all((p[:, 0] > x0 + m) & (p[:, 0] < x1 - m))
-                and np.all((p[:, 1] > y0 + m) & (p[:, 1] < y1 - m))
+            return np.asarray(
+                (p[:, 0] > x0 + m) & (p[:, 0] < x1 - m) & (p[:, 1] > y0 + m) & (p[:, 1] < y1 - m)
             )
         m = STABLE_MARGIN
-        for pose in p:
-            lo_x, hi_x, lo_y, hi_y = footprint.aabb(tuple(pose))
-            if lo_x < x0 + m or hi_x > x1 - m or lo_y < y0 + m or hi_y > y1 - m:
-                return False
-        return True
+        boxes = np.array([footprint.aabb((pose[0], pose[1], pose[2])) for pose in p])
+        return np.asarray(
+            (boxes[:, 0] >= x0 + m)
+            & (boxes[:, 1] <= x1 - m)
+            & (boxes[:, 2] >= y0 + m)
+            & (boxes[:, 3] <= y1 - m)
+        )
+
+    def stays_stable(self, name: str, final: np.ndarray) -> bool:
+        """StablePoses for an action's outcome: every sample of U(o) that stood stable before
+        the action stands stable after it (``final`` holds one row per sample, or several such
+        blocks, one per pushing parameter set). A sample that was already off (a sigma2 sample
+        of a box overhanging the shelf front) is not the action's doing and does not veto it."""
+        before = self.stable_mask(name, self.beliefs[name].samples)
+        after = self.stable_mask(name, final)
+        if len(after) % len(before):
+            return bool(after.all())
+        return bool(np.all(after | ~np.tile(before, len(after) // len(before))))
 
     # -- capture regions ----------------------------------------------------------------------
     def push_region(self, footprint: Footprint, aperture: float) -> CaptureRegion:

@@ -29,13 +29,25 @@ class Retrieve:
 
 
 @dataclass(frozen=True)
+class Anywhere:
+    """Any final state: an action run with parameters chosen outside the planner
+    (`planners.actions.primitives`), whose outcome physics decides."""
+
+    def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        return True
+
+    def describe(self) -> str:
+        return "anywhere"
+
+
+@dataclass(frozen=True)
 class AwayFrom:
     """StablePoses(o) - NGR: standing on the surface, clear of the negative goal region."""
 
     ngr: Volume
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
-        if held or not ctx.stable(name, final):
+        if held or not ctx.stays_stable(name, final):
             return False
         near = self._near(ctx, name, final)
         if not near.any():
@@ -51,7 +63,7 @@ class AwayFrom:
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         """A quick sufficient test: stable, and every pose's bounding square clears the NGR
         in the top-view map (no exact geometry)."""
-        return ctx.stable(name, final) and not self._near(ctx, name, final).any()
+        return ctx.stays_stable(name, final) and not self._near(ctx, name, final).any()
 
     def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
         spec = ctx.beliefs[name].spec

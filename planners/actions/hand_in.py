@@ -13,17 +13,17 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.reachability import grasp_height, hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.transforms import rotation_2d
 from planners.actions.arm import Arm, Free
+from planners.actions.clearance import line_overlap
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
 from planners.actions.grasp_geometry import (
     GRASP_CLOSURE,
     LIFT,
     OPEN_FLAT,
-    grasp_height,
-    hand_pose,
     rise_height,
 )
 from planners.actions.results import ActionResult, Failure
@@ -64,6 +64,9 @@ def hand_in(
     spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
     z = ctx.surface.top_z + grasp_height(spec.height)
+    blocked = line_overlap(ctx, profile.pusher, line, heading, avoid, z)
+    if blocked:
+        return Failure(name, action, blocked)
     hand = HandCommand(0.0, profile.closure)
     free = arm.free_check(avoid, hand)
     q_end = arm.solve(hand_pose(end_xy, heading, z), free)

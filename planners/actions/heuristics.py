@@ -13,21 +13,21 @@ from planners.actions.context import PlanningContext
 
 def corridor_hits(
     ctx: PlanningContext, name: str, start: np.ndarray, end: np.ndarray, width: float
-) -> int:
+) -> set[str]:
     """Objects other than ``name`` whose U overlaps a box swept from start to end (2D) at the
     hand's height: the paper's count of objects hit when the hand turns around the object."""
     delta = end - start
     length = float(np.linalg.norm(delta))
     if length < 1e-9:
-        return 0
+        return set()
     yaw = math.atan2(delta[1], delta[0])
     centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
     corridor = Volume.of_box("corridor", centre, (length, width, 0.12), yaw)
-    hits = 0
-    for other in ctx.beliefs:
-        if other != name and corridor.intersects(ctx.uncertainty_volume(other)):
-            hits += 1
-    return hits
+    return {
+        other
+        for other in ctx.beliefs
+        if other != name and corridor.intersects(ctx.uncertainty_volume(other))
+    }
 
 
 def base_heading(shoulder: np.ndarray, xy: np.ndarray) -> float:
@@ -37,29 +37,35 @@ def base_heading(shoulder: np.ndarray, xy: np.ndarray) -> float:
 
 
 def headings(ctx: PlanningContext, base: float, step_deg: float) -> list[float]:
-    """Headings every ``step_deg`` within ``max_heading_deg`` of ``base``."""
+    """Headings every ``step_deg`` within ``max_heading_deg`` of ``base``, each direction once
+    (at 180 degrees the two ends of the range are the same direction)."""
     step = math.radians(step_deg)
     limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
     count = int(limit // step)
-    return [base + k * step for k in range(-count, count + 1)]
+    ks = range(-count, count + 1)
+    if 2 * count * step >= 2 * math.pi - 1e-9:
+        ks = range(-count + 1, count + 1)
+    return [base + k * step for k in ks]
 
 
 def push_headings(
-    ctx: PlanningContext, shoulder: np.ndarray, name: str, reach: float
+    ctx: PlanningContext, shoulder: np.ndarray, name: str, reach: float, avoid: Volume
 ) -> list[float]:
     """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in and by
-    the object and fingers on their way on, then closest to the shoulder-object line."""
+    the object and fingers on their way on, then closest to the shoulder-object line. Hitting
+    an object of avoidVol (which no candidate may penetrate) counts before any other hit."""
     centre = ctx.beliefs[name].samples[0, :2]
     base = base_heading(shoulder, centre)
     radius = ctx.beliefs[name].spec.footprint.bounding_radius
+    fixed = avoid.labels
     scored = []
     for h in headings(ctx, base, ctx.settings.heading_step_deg):
         v = np.array([math.cos(h), math.sin(h)])
         hits = corridor_hits(ctx, name, centre - (radius + 0.30) * v, centre, 2 * reach)
         # Where the object and the fingers go: pushing it into others is as bad.
-        hits += corridor_hits(ctx, name, centre, centre + (radius + 0.15) * v, 2 * reach)
-        scored.append((hits, abs(h - base), h))
-    return [h for _, _, h in sorted(scored)]
+        hits |= corridor_hits(ctx, name, centre, centre + (radius + 0.15) * v, 2 * reach)
+        scored.append((len(hits & fixed), len(hits), abs(h - base), h))
+    return [h for *_, h in sorted(scored)]
 
 
 def sweep_directions(
@@ -71,7 +77,7 @@ def sweep_directions(
     centre = belief.samples[0, :2]
     base = base_heading(shoulder, centre)
     radius = belief.spec.footprint.bounding_radius
-    limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+    limit = math.radians(ctx.settings.sweep_max_heading_deg) + 1e-9
     scored = []
     step = math.radians(ctx.settings.sweep_step_deg)
     for k in range(round(2 * math.pi / step)):
@@ -83,5 +89,5 @@ def sweep_directions(
                 continue
             v = np.array([math.cos(angle), math.sin(angle)])
             hits = corridor_hits(ctx, name, centre + radius * v, centre + 0.30 * v, 2 * radius)
-            scored.append((hits, off, angle, handedness))
+            scored.append((len(hits), off, angle, handedness))
     return [(a, h) for _, _, a, h in sorted(scored)]

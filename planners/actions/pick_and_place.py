@@ -11,11 +11,12 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
-from planners.actions.grasp_geometry import GRASP_CLOSURE, hand_pose, translated
+from planners.actions.grasp_geometry import GRASP_CLOSURE, translated
 from planners.actions.hand_in import HandIn, release
 from planners.actions.results import ActionResult, Failure
 

@@ -18,11 +18,13 @@ import numpy as np
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.arm import Arm
+from planners.actions.clearance import HAND_BLOCKED
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
-from planners.actions.hand_in import NU_SPACING, hand_in, pick_up_or_release
+from planners.actions.hand_in import NU_SPACING, HandIn, hand_in, pick_up_or_release
 from planners.actions.heuristics import push_headings
+from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.actions.static_grasp import static_grasp
 from planners.capture import extreme_parameters, push_grasp_apertures
@@ -36,77 +38,102 @@ MISSES_SAMPLES = "the capture region misses some uncertainty samples"
 def push_grasp(
     ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
 ) -> Iterator[Outcome]:
-    """Push-grasps of ``name`` (PickUp when G is `Retrieve`), best heading first; then, for
-    the goal, the static grasps of its TSR (a push-grasp with no push, d = 0: §3.1.2)."""
-    belief = ctx.beliefs[name]
-    spec = belief.spec
+    """Push-grasps of ``name``, best heading first. For the goal (G is `Retrieve`) they are
+    PickUps, and the static grasps of its TSR come first (push-grasps with no push, d = 0,
+    §3.1.2: the shortest motion when the uncertainty allows one). An obstacle is either left
+    where the push put it or carried out of the NGR (PickUp of an obstacle, §2.1.6)."""
+    spec = ctx.beliefs[name].spec
     action = "pickup" if isinstance(goal, Retrieve) else "push-grasp"
     why = unfit(spec, pushed=True, lifted=action == "pickup")
     if why:
         yield Failure(name, action, why)
         return
+    budget = ctx.settings.candidates_per_action
+    if action == "pickup":
+        budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
     # The goal is grasped from the widest preshape first: closing from a narrow one pops a
     # tall bottle up out of the hand in simulation (the Table 1 suite at sigma1).
     apertures = sorted(push_grasp_apertures(spec.footprint), reverse=action == "pickup")
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
-    found = 0
-    for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach):
+    for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach, avoid):
+        if budget <= 0:
+            return
         for aperture in apertures:
-            result = yield from _over_offsets(
-                ctx, arm, name, goal, avoid, action, heading, aperture
-            )
-            if result is None:
+            pushed = yield from _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
+            if pushed is None:
                 continue
-            yield result
-            found += 1
-            if found >= ctx.settings.candidates_per_action:
-                return
-            break  # the next candidate pushes from another direction
-    if action == "pickup":
-        for outcome in static_grasp(ctx, arm, name, goal, avoid):
-            yield outcome
-            if isinstance(outcome, ActionResult):
-                found += 1
-                if found >= ctx.settings.candidates_per_action:
-                    return
+            finishes = _finishes(ctx, arm, name, goal, avoid, action, *pushed)
+            found = yield from _counted(finishes, budget)
+            budget -= found
+            if found:
+                break  # the next candidate pushes from another direction
+
+
+def _counted(outcomes: Iterator[Outcome], limit: int) -> Generator[Outcome, None, int]:
+    """Yield ``outcomes`` until ``limit`` results; return how many results there were."""
+    found = 0
+    for outcome in outcomes:
+        if found >= limit:
+            break
+        yield outcome
+        found += isinstance(outcome, ActionResult)
+    return found
+
+
+def _finishes(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    moved: HandIn,
+    details: dict[str, float],
+) -> Iterator[Outcome]:
+    """What a push-grasp does once the hand holds the object: PickUp of the goal; for an
+    obstacle, release it where it is, else carry it to a placement out of the NGR."""
+    yield pick_up_or_release(ctx, arm, name, goal, avoid, action, moved, details)
+    if action != "pickup":
+        yield place(ctx, arm, name, goal, avoid, moved, details)
 
 
 def _over_offsets(
     ctx: PlanningContext,
     arm: Arm,
     name: str,
-    goal: Goal,
     avoid: Volume,
     action: str,
     heading: float,
     aperture: float,
-) -> Generator[Failure, None, ActionResult | None]:
-    """The push-grasp at this heading and aperture, trying the lateral offsets while the
-    capture region misses samples (an offset shifts the hand by a centimetre: it only helps
-    the capture); the failures on the way are yielded."""
+) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
+    """The push at this heading and aperture, trying the lateral offsets while the capture
+    region misses samples or the hand overlaps a neighbour (an offset shifts the hand by a
+    centimetre or two: it helps the capture, or clears a neighbour beside the fingers); the
+    failures on the way are yielded."""
     for offset in ctx.settings.offsets:
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        outcome = _push_grasp_at(ctx, arm, name, goal, avoid, action, heading, aperture, offset)
-        if isinstance(outcome, ActionResult):
+        outcome = _push_at(ctx, arm, name, avoid, action, heading, aperture, offset)
+        if not isinstance(outcome, Failure):
             return outcome
         yield outcome
-        if outcome.reason != MISSES_SAMPLES:
+        if outcome.reason != MISSES_SAMPLES and not outcome.reason.startswith(HAND_BLOCKED):
             return None
     return None
 
 
-def _push_grasp_at(
+def _push_at(
     ctx: PlanningContext,
     arm: Arm,
     name: str,
-    goal: Goal,
     avoid: Volume,
     action: str,
     heading: float,
     aperture: float,
     offset: float,
-) -> Outcome:
+) -> tuple[HandIn, dict[str, float]] | Failure:
+    """The hand pushing in along ``heading``, offset sideways, until the capture region says
+    every sample is in the hand; the motion, nu_o and the parameters, or why not."""
     belief = ctx.beliefs[name]
     spec = belief.spec
     region = ctx.push_region(spec.footprint, aperture)
@@ -144,4 +171,4 @@ def _push_grasp_at(
     moved = hand_in(ctx, arm, name, action, avoid, (start_xy, end_xy), heading, profile, evolve)
     if isinstance(moved, Failure):
         return moved
-    return pick_up_or_release(ctx, arm, name, goal, avoid, action, moved, details)
+    return moved, details

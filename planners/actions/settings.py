@@ -20,10 +20,15 @@ class PlannerSettings:
     # about 1 s here, and a count, not seconds, so that plans do not depend on the machine's load.
     goto_evaluations: int = 5000
     heading_step_deg: float = 15.0
-    max_heading_deg: float = 75.0  # push directions within this of the shoulder-object line
-    offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02)
+    # Push and grasp directions within this of the shoulder-object line: 180 is the paper's
+    # v in [0, 2 pi) (§2.2.6); the reachability map prunes the ones the arm cannot reach.
+    max_heading_deg: float = 180.0
+    offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02, 0.03, -0.03, 0.04, -0.04)
     sweep_max: float = 0.55  # m
     sweep_step_deg: float = 30.0
+    # Sweep approaches within this of the shoulder-object line: all around, so the hand may
+    # come in from the side and sweep an object toward the robot (the map prunes the rest).
+    sweep_max_heading_deg: float = 180.0
     candidates_per_action: int = 3
     seed: int = 0
 
@@ -47,6 +52,7 @@ class StatsRecord:
     planning_steps: int
     actions_tried: int
     collision_checks: int
+    ik_skipped: int
     seconds: dict[str, float]
 
 
@@ -57,6 +63,7 @@ class PlanStats:
     planning_steps: int = 0
     actions_tried: int = 0
     collision_checks: int = 0
+    ik_skipped: int = 0  # IK solves the reachability map ruled out
     seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
 
     @contextmanager
@@ -73,6 +80,7 @@ class PlanStats:
             self.planning_steps,
             self.actions_tried,
             self.collision_checks,
+            self.ik_skipped,
             {k: round(v, 4) for k, v in sorted(self.seconds.items())},
         )
 

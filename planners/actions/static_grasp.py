@@ -59,7 +59,7 @@ def static_grasp(
             (-profile.half_gap, profile.half_gap),
             (profile.grasp_line - TSR_DEPTH, profile.grasp_line),
         )
-        draws = _grasping_draws(ctx, arm, name, tsr, region, profile)
+        draws = _grasping_draws(ctx, arm, name, tsr, region, profile, avoid)
         if not len(draws):
             yield Failure(name, action, "no hand pose in the TSR grasps every uncertainty sample")
             continue
@@ -103,6 +103,7 @@ def _grasping_draws(
     tsr: GraspTSR,
     region: CaptureRegion,
     profile: PushGraspProfile,
+    avoid: Volume,
 ) -> np.ndarray:
     """Hand poses (K, 3) drawn from the TSR that grasp every sample as it stands, in §2.2.6's
     order of the push directions (objects hit on the way in first), then most centred."""
@@ -112,7 +113,8 @@ def _grasping_draws(
         draws = draws[grasps_every_sample(region, tsr, draws, samples)]
     if not len(draws):
         return draws
-    ranked = np.array(push_headings(ctx, arm.kinematics.shoulder, name, profile.pusher.bounds[3]))
+    reach = profile.pusher.bounds[3]
+    ranked = np.array(push_headings(ctx, arm.kinematics.shoulder, name, reach, avoid))
     rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
     return draws[np.lexsort((np.abs(draws[:, 1]), rank))]
 

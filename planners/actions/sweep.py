@@ -12,15 +12,15 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.reachability import grasp_height, hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.arm import Arm, Free
+from planners.actions.clearance import overlapped
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom, Goal
 from planners.actions.grasp_geometry import (
     START_CLEARANCE,
-    grasp_height,
-    hand_pose,
     near_edge,
     rise_height,
     translated,
@@ -101,7 +101,7 @@ def _sweep_at(
     free = arm.free_check(avoid, hand)
     placement = None
     for fraction in SWEEP_PLACEMENTS:
-        outcome = _placement(ctx, arm, name, plan, fraction, guess, free)
+        outcome = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
         if isinstance(outcome, Failure):
             yield outcome
             continue
@@ -141,18 +141,25 @@ def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) 
 
 def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
     """A rigid translation along the sweep is a cheap first guess of how far to sweep (the
-    simulated evolution decides); it does not depend on where along the hand."""
+    simulated evolution decides); it does not depend on where along the hand. The top-view
+    bounding-square test is tried first; when no distance passes it (a box's square is
+    pessimistic next to the NGR), the exact test decides."""
     samples = ctx.beliefs[name].samples
     direction = plan.frame.x_axis
     gap = START_CLEARANCE
-    return next(
-        (
-            gap + d
-            for d in np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
-            if goal.clearly_accepts(ctx, name, translated(samples, d * direction))
-        ),
-        None,
-    )
+    shifts = np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
+
+    def coarse(poses: np.ndarray) -> bool:
+        return goal.clearly_accepts(ctx, name, poses)
+
+    def exact(poses: np.ndarray) -> bool:
+        return goal.accepts(ctx, name, poses, False)
+
+    for accepts in (coarse, exact):
+        for d in shifts:
+            if accepts(translated(samples, d * direction)):
+                return float(gap + d)
+    return None
 
 
 def _placement(
@@ -162,20 +169,20 @@ def _placement(
     plan: _Sweep,
     fraction: float,
     guess: float,
+    avoid: Volume,
     free: Free,
 ) -> tuple[Frame2D, np.ndarray] | Failure:
     """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
     capture region holds every sample and the arm reaches the start and the guessed end."""
-    lo, hi = plan.span
-    y0 = plan.local[:, 1].mean() - (lo + fraction * (hi - lo))
-    origin = plan.frame.to_world(np.array([plan.x0, y0, 0.0]))
-    frame = Frame2D((float(origin[0]), float(origin[1])), plan.angle, plan.handedness)
-    in_frame = frame.to_frame(ctx.beliefs[name].samples)
+    frame, in_frame = _frame_at(ctx, name, plan, fraction)
     with ctx.stats.timed("capture"):
         captured = bool(plan.region.query(in_frame, float(guess))[0].all())
     if not captured:
         return Failure(name, ACTION, "the sweep capture region misses some uncertainty samples")
     start_xy = np.asarray(frame.origin)
+    blocker = overlapped(ctx, sweep_profile(plan.region.aperture).pusher, frame, avoid, plan.z)
+    if blocker:
+        return Failure(name, ACTION, f"the hand overlaps {blocker} where the sweep starts")
     # Reachable and clear where it starts and where the guess ends, before paying for the
     # simulated evolution; another placement along the hand may clear what this hits.
     if arm.solve(hand_pose(start_xy, plan.approach, plan.z), free) is None:
@@ -184,6 +191,41 @@ def _placement(
     if arm.solve(hand_pose(end_xy, plan.approach, plan.z), free) is None:
         return Failure(name, ACTION, "no collision-free IK solution at the end of the sweep")
     return frame, in_frame
+
+
+def _frame_at(
+    ctx: PlanningContext, name: str, plan: _Sweep, fraction: float
+) -> tuple[Frame2D, np.ndarray]:
+    """The sweep frame (origin where the hand starts) with the object's centre ``fraction``
+    along the hand's side, and the samples in it."""
+    lo, hi = plan.span
+    y0 = plan.local[:, 1].mean() - (lo + fraction * (hi - lo))
+    origin = plan.frame.to_world(np.array([plan.x0, y0, 0.0]))
+    frame = Frame2D((float(origin[0]), float(origin[1])), plan.angle, plan.handedness)
+    return frame, frame.to_frame(ctx.beliefs[name].samples)
+
+
+def sweep_with(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    direction: tuple[float, int],
+    fraction: float,
+    distance: float,
+    avoid: Volume,
+) -> Outcome:
+    """One sweep with its parameters given (direction: world yaw and which side of the hand),
+    no capture region and no goal test: `planners.actions.primitives`. nu_o is the samples
+    carried rigidly along; physics decides what really happens."""
+    if not ctx.beliefs[name].spec.pushable:
+        return Failure(name, ACTION, "tips over when pushed")
+    plan = _plan_sweep(ctx, name, *direction)
+    frame, _ = _frame_at(ctx, name, plan, fraction)
+    samples = ctx.beliefs[name].samples
+    nu = np.stack([samples, translated(samples, distance * frame.x_axis)])
+    hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
+    free = arm.free_check(avoid, hand)
+    return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, distance, nu)
 
 
 def _simulate(
@@ -229,13 +271,11 @@ def _sweep_motion(
     spec = ctx.beliefs[name].spec
     start_xy = np.asarray(frame.origin)
     end_xy = start_xy + distance * frame.x_axis
-    q_end = arm.solve(hand_pose(end_xy, plan.approach, plan.z), free)
-    if q_end is None:
-        return Failure(name, ACTION, "no collision-free IK solution at the end of the sweep")
-    back = arm.straight(q_end, hand_pose(start_xy, plan.approach, plan.z), free)
-    if back is None:
-        return Failure(name, ACTION, "the straight sweep is out of reach or hits avoidVol")
-    motion = Segment("sweep", back[::-1].copy(), hand)
+    path = _straight_sweep(arm, plan, start_xy, end_xy, free)
+    if isinstance(path, str):
+        return Failure(name, ACTION, path)
+    q_end = path[-1]
+    motion = Segment("sweep", path, hand)
     if not arm.motion_free((motion,), avoid):
         return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
     if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
@@ -262,6 +302,26 @@ def _sweep_motion(
     }
     segments = (motion, Segment("retreat", retreat, hand), Segment("rise", rise, hand))
     return ActionResult(ACTION, name, Trajectory(segments), nu, False, details)
+
+
+def _straight_sweep(
+    arm: Arm, plan: _Sweep, start_xy: np.ndarray, end_xy: np.ndarray, free: Free
+) -> np.ndarray | str:
+    """The straight hand line from start to end, or why there is none. Traced back from an
+    IK solution at the end, then forward from one at the start: a long sweep across the body
+    can leave the branch of one end's solution (a wrist limit) yet be straight from the other."""
+    start, end = (hand_pose(xy, plan.approach, plan.z) for xy in (start_xy, end_xy))
+    q_end = arm.solve(end, free)
+    if q_end is None:
+        return "no collision-free IK solution at the end of the sweep"
+    back = arm.straight(q_end, start, free)
+    if back is not None:
+        return back[::-1].copy()
+    q_start = arm.solve(start, free)
+    forward = None if q_start is None else arm.straight(q_start, end, free)
+    if forward is None:
+        return "the straight sweep is out of reach or hits avoidVol"
+    return forward
 
 
 def _reached(
