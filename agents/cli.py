@@ -6,9 +6,16 @@ clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
 clutter-gym bench env|capture|plan --json out.json
-clutter-gym benchmark --suite table1|fig15 [--planners tsr,pg,pushing,pick-and-place]
+clutter-gym benchmark --suite table1|fig15|perturbed [--planners tsr,pg,pushing,pick-and-place]
     --json out.json [--md out.md] [--plots dir] [--trials 10] [--workers 2] [--backend local|ray]
 clutter-gym benchmark-plots --json out.json --out dir
+clutter-gym train --algo ppo|sac|tqc[,...] --env ID [--config agents/hyperparams/ppo.yml]
+    [--steps N] [--n-envs K] [--seed S | --seeds 0,1,2] --out DIR [--backend local|ray]
+    [--workers 1] [--eval-freq F] [--eval-episodes E] [--save-freq C]
+clutter-gym evaluate --agent DIR|planner:pushing|planner:pg|planner:tsr|scripted [--agent ...]
+    --env ID --episodes N --seed S --json out.json [--md out.md]
+    [--level none] [--goal-kind soda_can] [--noise sigma1] [--scenes a.json ...]
+clutter-gym plot-training DIR... --out fig.png
 
 Bad input is one line naming the flag, the value and what is allowed, exit status 2; every
 argument is checked before any work starts.
@@ -20,15 +27,18 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 
 from agents.benchmark import SUITES
 from agents.cli_args import (
+    input_dir,
     input_file,
     integer,
+    integers,
     names,
+    names_from,
     numbers,
     output_dir,
     output_file,
@@ -36,10 +46,19 @@ from agents.cli_args import (
     read_json,
 )
 from agents.jobs import BACKENDS
-from clutter_gym import __version__
+from agents.rl_config import ALGOS
+from agents.validate_capture import ACTIONS as VALIDATED_ACTIONS
+from clutter_gym import ENV_IDS, __version__
 from clutter_gym.media import write_json, write_png
 from clutter_gym.model.noise import NOISE_LEVELS, resolve_noise
-from clutter_gym.model.scene import LEVELS, generate_scene, load_scene, save_scene, scene_to_dict
+from clutter_gym.model.scene import (
+    GOAL_KINDS,
+    LEVELS,
+    generate_scene,
+    load_scene,
+    save_scene,
+    scene_to_dict,
+)
 from clutter_gym.model.world import SURFACES
 
 
@@ -170,7 +189,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 def _cmd_validate_capture(args: argparse.Namespace) -> int:
     from agents.validate_capture import validate
 
-    report = validate(args.object, args.trials, args.json, args.rotations, args.workers)
+    report = validate(
+        args.object, args.trials, args.json, args.rotations, args.workers, args.action
+    )
     for rotation in args.rotations:
         print(
             json.dumps(
@@ -188,15 +209,92 @@ def _cmd_validate_capture(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_reachability(args: argparse.Namespace) -> int:
+    from agents.reachability import build_map, plot_map
+
+    names = tuple(SURFACES) if args.surface == "all" else (args.surface,)
+    for name in names:
+        built, path = build_map(name, args.workers, args.log_dir)
+        figure = args.figure_dir / f"reachability_{name}.png"
+        plot_map(built, SURFACES[name], figure)
+        print(json.dumps({"surface": name, "map": str(path), "figure": str(figure),
+                          "reachable_fraction": round(float(built.reach.mean()), 4)}))  # fmt: skip
+    return 0
+
+
 def _cmd_capture_region(args: argparse.Namespace) -> int:
     from agents.capture_figure import capture_figure, check_validation
 
     validation = None
     if args.validation is not None:
-        validation = check_validation(read_json(args.validation, "--validation"), args.validation)
-    capture_figure(args.object, args.out, validation)
+        report = read_json(args.validation, "--validation")
+        validation = check_validation(report, args.validation, args.action)
+    capture_figure(args.object, args.out, validation, action=args.action)
     print(f"wrote {args.out}")
     return 0
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from agents.train import GridRequest, prepare_grid, run_grid
+
+    request = GridRequest(
+        algos=args.algo,
+        env_id=args.env,
+        config=args.config,
+        steps=args.steps,
+        n_envs=args.n_envs,
+        seeds=args.seeds or (args.seed,),
+        grid=args.seeds is not None or len(args.algo) > 1,
+        out=args.out,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        save_freq=args.save_freq,
+    )
+    jobs = prepare_grid(request)  # every check before any training
+    records = run_grid(jobs, args.out, backend=args.backend, workers=args.workers)
+    for record in records:
+        print(json.dumps(record))
+    return 0 if all(r["status"] == "finished" for r in records) else 1
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.evaluate import check_envs, plan_episodes, run_evaluation, scene_keywords
+
+    given = {
+        "level": args.level,
+        "goal_kind": args.goal_kind,
+        "noise": args.noise,
+        "surface": args.surface,
+        "scenes": [str(path) for path in args.scenes] if args.scenes else None,
+    }
+    scenes = scene_keywords(args.agent, {k: v for k, v in given.items() if v is not None})
+    jobs = plan_episodes(args.agent, args.episodes, args.seed, scenes, args.budget)
+    check_envs(jobs)
+    report = run_evaluation(
+        args.agent, args.env, jobs, args.json, args.md, args.workers, args.backend
+    )
+    for label, cell in report["summary"].items():
+        print(json.dumps({"agent": label, **cell}))
+    print(f"wrote {', '.join(str(p) for p in (args.json, args.md) if p)}", file=sys.stderr)
+    return 0
+
+
+def _cmd_plot_training(args: argparse.Namespace) -> int:
+    from agents.training_plots import plot_training
+
+    curves = plot_training(args.runs, args.out, args.title)
+    print(f"wrote {args.out} ({len(curves)} runs)")
+    return 0
+
+
+def _agent(text: str) -> object:
+    """An agent of `clutter-gym evaluate`, checked now (a training directory is read)."""
+    from agents.evaluate import parse_agent
+
+    try:
+        return parse_agent(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -320,9 +418,12 @@ def build_parser() -> argparse.ArgumentParser:
     render.set_defaults(func=_cmd_render)
 
     validate = sub.add_parser(
-        "validate-capture", help="push-grasp capture region vs pybullet physics (paper Fig. 11)"
+        "validate-capture", help="capture region vs pybullet physics (paper Fig. 11)"
     )
     validate.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
+    validate.add_argument(
+        "--action", choices=VALIDATED_ACTIONS, default="push-grasp", help="the region's action"
+    )
     validate.add_argument("--trials", type=count, default=1000, help="grid poses per rotation")
     validate.add_argument(
         "--json", type=output_file, required=True, help="report; its trials log goes beside it"
@@ -333,13 +434,29 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--workers", type=count, default=2, help="trials in parallel")
     validate.set_defaults(func=_cmd_validate_capture)
 
-    figure = sub.add_parser("capture-region", help="plot a push-grasp capture region")
+    figure = sub.add_parser("capture-region", help="plot a push-grasp or sweep capture region")
     figure.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
+    figure.add_argument(
+        "--action", choices=VALIDATED_ACTIONS, default="push-grasp", help="the region's action"
+    )
     figure.add_argument("--out", type=output_file, required=True, help="PNG to write")
     figure.add_argument(
         "--validation", type=input_file, default=None, help="JSON of clutter-gym validate-capture"
     )
     figure.set_defaults(func=_cmd_capture_region)
+
+    reach = sub.add_parser(
+        "reachability", help="build the arm's reachability map of a support and plot it"
+    )
+    reach.add_argument("--surface", choices=(*SURFACES, "all"), default="all", help="which")
+    reach.add_argument("--workers", type=count, default=2, help="rows in parallel")
+    reach.add_argument(
+        "--log-dir", type=output_dir, default="out/reachability", help="job logs (resumable)"
+    )
+    reach.add_argument("--figure-dir", type=output_dir, default="docs", help="the PNG plots")
+    reach.set_defaults(func=_cmd_reachability)
+
+    _add_rl_commands(sub, count, seed)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
     bench.add_argument("target", choices=("env", "capture", "plan"), help="what to measure")
@@ -355,6 +472,74 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seeds", type=count, default=3, help="plan: detections per scene")
     bench.set_defaults(func=_cmd_bench)
     return parser
+
+
+def _add_rl_commands(sub: Any, count: Any, seed: Any) -> None:
+    """train, evaluate and plot-training (rl-baselines3-zoo's conventions)."""
+    train = sub.add_parser(
+        "train", help="train a stable-baselines3 / sb3-contrib agent on a variant"
+    )
+    train.add_argument(
+        "--algo", type=names_from(ALGOS, "an algorithm"), required=True,
+        help="ppo, sac or tqc; comma-separated for a grid",
+    )  # fmt: skip
+    train.add_argument("--env", choices=ENV_IDS, required=True, help="the variant's id")
+    train.add_argument(
+        "--config", type=input_file, default=None,
+        help="hyperparameters YAML keyed by env id (None: agents/hyperparams/<algo>.yml)",
+    )  # fmt: skip
+    train.add_argument("--steps", type=count, default=None, help="env steps (None: n_timesteps)")
+    train.add_argument("--n-envs", type=count, default=None, help="envs (None: n_envs, or 1)")
+    seeds = train.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=seed, default=0, help="the run's seed")
+    seeds.add_argument(
+        "--seeds", type=integers(0), default=None, help="a grid of seeds, e.g. 0,1,2"
+    )
+    train.add_argument(
+        "--out", type=output_dir, required=True, help="the run's directory (a grid's: one per run)"
+    )
+    train.add_argument("--backend", choices=BACKENDS, default="local", help="where runs go")
+    train.add_argument("--workers", type=count, default=1, help="runs of a grid in parallel")
+    train.add_argument(
+        "--eval-freq", type=count, default=None, help="steps between evaluations (None: steps/10)"
+    )
+    train.add_argument("--eval-episodes", type=count, default=10, help="episodes per evaluation")
+    train.add_argument(
+        "--save-freq", type=count, default=None, help="steps between checkpoints (None: eval-freq)"
+    )
+    train.set_defaults(func=_cmd_train)
+
+    evaluate = sub.add_parser(
+        "evaluate", help="trained agents, planners and the scripted grasp on the same episodes"
+    )
+    evaluate.add_argument(
+        "--agent", type=_agent, action="append", required=True,
+        help="a training directory, planner:NAME (pushing, pg, tsr, pick-and-place) or scripted",
+    )  # fmt: skip
+    evaluate.add_argument("--env", choices=ENV_IDS, required=True, help="the evaluated variant")
+    evaluate.add_argument("--episodes", type=count, default=10, help="episodes per agent")
+    evaluate.add_argument("--seed", type=seed, default=0, help="episode k resets with seed + k")
+    evaluate.add_argument(
+        "--json", type=output_file, required=True, help="report; its jobs log goes beside it"
+    )
+    evaluate.add_argument("--md", type=output_file, default=None, help="the table as Markdown")
+    evaluate.add_argument("--level", choices=LEVELS, default=None, help="clutter of the scenes")
+    evaluate.add_argument("--goal-kind", choices=GOAL_KINDS, default=None, help="goal's kind")
+    evaluate.add_argument("--noise", type=_noise, default=None, help="detection noise override")
+    evaluate.add_argument("--surface", choices=tuple(SURFACES), default=None, help="support")
+    evaluate.add_argument(
+        "--scenes", type=input_file, nargs="+", default=None, help="scene files to draw from"
+    )
+    evaluate.add_argument("--budget", type=positive_number, default=20.0, help="planning [s]")
+    evaluate.add_argument("--workers", type=count, default=1, help="episodes in parallel")
+    evaluate.add_argument("--backend", choices=BACKENDS, default="local", help="where jobs run")
+    evaluate.set_defaults(func=_cmd_evaluate)
+
+    plot = sub.add_parser("plot-training", help="success rate against env steps, over seeds")
+    plot.add_argument("runs", type=input_dir, nargs="+", help="training directories (or grids)")
+    plot.add_argument("--out", type=output_file, required=True, help="PNG to write")
+    plot.add_argument("--title", default=None, help="the figure's title")
+    plot.set_defaults(func=_cmd_plot_training)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

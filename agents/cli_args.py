@@ -69,6 +69,46 @@ def names(text: str) -> tuple[str, ...]:
     return parts
 
 
+def integers(minimum: int) -> Callable[[str], tuple[int, ...]]:
+    """A comma-separated, non-empty list of distinct integers >= ``minimum``, e.g. 0,1,2."""
+    one = integer(minimum)
+
+    def parse(text: str) -> tuple[int, ...]:
+        parts = [part.strip() for part in text.split(",") if part.strip()]
+        if not parts:
+            raise argparse.ArgumentTypeError(f"{shown(text)} names nothing; give e.g. 0,1,2")
+        return tuple(dict.fromkeys(one(part) for part in parts))
+
+    return parse
+
+
+def names_from(allowed: tuple[str, ...], what: str) -> Callable[[str], tuple[str, ...]]:
+    """A comma-separated, non-empty list of names, each one of ``allowed``."""
+
+    def parse(text: str) -> tuple[str, ...]:
+        chosen = names(text)
+        for name in chosen:
+            if name not in allowed:
+                raise argparse.ArgumentTypeError(
+                    f"{shown(name)} is not {what}; allowed: {', '.join(allowed)}"
+                )
+        return chosen
+
+    return parse
+
+
+def input_dir(text: str) -> Path:
+    """An existing directory."""
+    if not text:
+        raise argparse.ArgumentTypeError("the path is empty")
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a directory")
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: no such directory")
+    return path
+
+
 def input_file(text: str) -> Path:
     """An existing regular file."""
     if not text:

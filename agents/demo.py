@@ -30,7 +30,7 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     """Plans with Rearrange from the first detection of `scene` (default: the demo scene) and
     executes the plan; writes `out_dir/demo.gif` and `out_dir/demo.json`, returns the summary."""
     chosen = default_scene() if scene is None else load_scene(scene)
-    env = gym.make("ClutterRetrieve-v0", render_mode="rgb_array", step_limit=STEP_LIMIT)
+    env = gym.make("ClutterRetrieve-v0", render_mode="rgb_array", max_episode_steps=STEP_LIMIT)
     base: ClutterRetrieveEnv = env.unwrapped  # type: ignore[assignment]
     gif = out_dir / "demo.gif"
     try:

@@ -92,7 +92,7 @@ def plan_from_detection(
         get_surface(scene.surface),
         believed,
         scene.goal.object,
-        np.asarray(hm.RIGHT_ARM_HOME),
+        np.asarray(hm.RIGHT_ARM_START),
         settings,
         scene.goal.region,
         planner,
@@ -108,11 +108,7 @@ def execute(
 ) -> TrialOutcome:
     """Replay env actions on one true world; the outcome. With ``on_frame``, every rendered
     frame is handed to it as it comes (a `clutter_gym.media.GifStream`)."""
-    env = ClutterRetrieveEnv(
-        render_mode="rgb_array" if on_frame else None,
-        waypoints=WAYPOINTS,
-        step_limit=len(actions) + 1,
-    )
+    env = ClutterRetrieveEnv(render_mode="rgb_array" if on_frame else None, waypoints=WAYPOINTS)
     try:
         env.reset(seed=seed, options={"scene": world})
         if on_frame is not None:

@@ -64,9 +64,7 @@ class ExecutionSummary:
             execution_successes=successes,
             execution_success_rate=successes / len(outcomes) if outcomes else None,
             execution_failures=failures,
-            mean_execution_simulated_s=(
-                round(float(np.mean(simulated)), 2) if simulated else None
-            ),
+            mean_execution_simulated_s=(round(float(np.mean(simulated)), 2) if simulated else None),
         )
 
     def as_dict(self) -> Json:

@@ -19,7 +19,8 @@ from planners.direct_grasp import (
 
 
 class DirectGraspPolicy:
-    """`action = policy(obs)` for control_mode="trajectory": a direct side grasp of the goal.
+    """`action = policy(obs)` in `ClutterRetrieve-v0` (one trajectory per step): a direct side
+    grasp of the goal.
 
     Plans once, from the detected goal pose of the first observation (open loop). If planning
     fails, `self.failure` holds the reason and the policy holds the arm still.

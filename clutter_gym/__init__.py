@@ -1,14 +1,39 @@
 """clutter-gym: HERB retrieving objects from clutter under pose uncertainty (pybullet + Gymnasium).
 
-Importing the package registers `ClutterRetrieve-v0`; make it with
-`gymnasium.make("ClutterRetrieve-v0", control_mode="trajectory" | "ee_delta", ...)`.
+Importing the package registers one Gymnasium id per variant (as panda-gym and
+Gymnasium-Robotics do), each with its `max_episode_steps`; truncation is Gymnasium's TimeLimit:
+
+- `ClutterRetrieve-v0`: one step executes a whole trajectory (`clutter_gym.env.ClutterRetrieveEnv`);
+- `ClutterRetrieveEE-v0`: end-effector steps, sparse reward, goal-conditioned (GoalEnv);
+- `ClutterRetrieveEEDense-v0`: the same with the dense (potential-shaped) reward;
+- `ClutterRetrievePrimitive-v0`: one step is one of the paper's parameterised primitives
+  (push-grasp, sweep, PickUp), built by the planner's action code (`agents.primitive_env`).
 """
 
 from gymnasium.envs.registration import register, registry
 
 __version__ = "0.1.0"
 
-ENV_IDS = ("ClutterRetrieve-v0",)
+# id: (entry point, keywords, max_episode_steps). Variants defined above this package (e.g. an
+# action-primitive variant in agents/) are registered here too, by their entry-point string, so
+# that `import clutter_gym` registers every id without importing the layers above it.
+_VARIANTS: dict[str, tuple[str, dict[str, str], int]] = {
+    "ClutterRetrieve-v0": ("clutter_gym.env:ClutterRetrieveEnv", {}, 10),
+    "ClutterRetrieveEE-v0": (
+        "clutter_gym.env:ClutterRetrieveEEEnv",
+        {"reward_type": "sparse"},
+        100,
+    ),
+    "ClutterRetrieveEEDense-v0": (
+        "clutter_gym.env:ClutterRetrieveEEEnv",
+        {"reward_type": "dense"},
+        100,
+    ),
+    "ClutterRetrievePrimitive-v0": ("agents.primitive_env:ClutterRetrievePrimitiveEnv", {}, 6),
+}
+ENV_IDS = tuple(_VARIANTS)
+"""Every registered id (the tests run the Gymnasium and stable-baselines3 checkers on each)."""
 
-if "ClutterRetrieve-v0" not in registry:
-    register(id="ClutterRetrieve-v0", entry_point="clutter_gym.env:ClutterRetrieveEnv")
+for _id, (_entry_point, _kwargs, _max_steps) in _VARIANTS.items():
+    if _id not in registry:
+        register(id=_id, entry_point=_entry_point, kwargs=_kwargs, max_episode_steps=_max_steps)

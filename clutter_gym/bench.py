@@ -1,12 +1,14 @@
 """Speed and memory benchmarks: numbers are measured here and written as JSON, never asserted.
 
 `clutter-gym bench env` reports
-- low-level steps/s (control_mode="ee_delta", random actions),
-- trajectory steps/s and physics steps/s (control_mode="trajectory", free-space trajectories
-  around the home configuration),
+- low-level steps/s (`ClutterRetrieveEE-v0`, random actions; resets are not timed),
+- trajectory steps/s and physics steps/s (`ClutterRetrieve-v0`, free-space trajectories around
+  the home configuration),
 - mean reset time, and RSS growth over `resets` resets,
 - panda-gym's PandaPush-v3 steps/s in the same run, and our ratio to it, when panda-gym is
-  installed (`pip install -e ".[bench]"`).
+  installed (`pip install -e ".[bench]"`). The two low-level envs take turns, `CHUNKS` times
+  each, so that on a shared machine a change of load slows both alike instead of biasing the
+  ratio (measured one after the other, repeated runs' ratios swung between 1.3 and 2.5 here).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
-import clutter_gym  # noqa: F401  (registers the env)
+import clutter_gym  # noqa: F401  (registers the variants)
 from clutter_gym.model import herb as hm
 from clutter_gym.sim.simulator import native_stdout_muted
 
@@ -33,26 +35,55 @@ def rss_mb() -> float:
     return pages * resource.getpagesize() / 1e6
 
 
-def _steps_per_second(env: gym.Env, steps: int, desc: str, seed: int = 0) -> float:
-    env.reset(seed=seed)
-    env.action_space.seed(seed)
-    elapsed = 0.0
-    for _ in tqdm(range(steps), desc=desc, unit="step", leave=False):
-        action = env.action_space.sample()
-        start = time.perf_counter()
-        _, _, terminated, truncated, _ = env.step(action)
-        elapsed += time.perf_counter() - start
-        if terminated or truncated:
-            env.reset()
-    return steps / elapsed
+CHUNKS = 10
 
 
-def bench_low_level(steps: int) -> float:
-    env = gym.make("ClutterRetrieve-v0", control_mode="ee_delta", level="medium")
+class _Timed:
+    """An env stepped with seeded random actions and reset when an episode ends; only `step`
+    is timed."""
+
+    def __init__(self, env: gym.Env, seed: int = 0) -> None:
+        self.env = env
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+        self.steps, self.elapsed = 0, 0.0
+
+    def run(self, steps: int) -> None:
+        for _ in range(steps):
+            action = self.env.action_space.sample()
+            start = time.perf_counter()
+            _, _, terminated, truncated, _ = self.env.step(action)
+            self.elapsed += time.perf_counter() - start
+            if terminated or truncated:
+                self.env.reset()
+        self.steps += steps
+
+    @property
+    def per_second(self) -> float:
+        return self.steps / self.elapsed
+
+
+def bench_low_level(steps: int) -> dict[str, float | None]:
+    """Our end-effector steps/s and PandaPush-v3's (None without panda-gym), taking turns."""
+    envs = [gym.make("ClutterRetrieveEE-v0", level="medium")]
+    panda = _make_panda()
+    if panda is not None:
+        envs.append(panda)
     try:
-        return _steps_per_second(env, steps, "ee_delta steps")
+        timed = [_Timed(env) for env in envs]
+        for chunk in tqdm(range(CHUNKS), desc="low-level steps", unit="chunk", leave=False):
+            for each in timed:
+                each.run(steps // CHUNKS + (chunk < steps % CHUNKS))
     finally:
-        env.close()
+        for env in envs:
+            env.close()
+    ours = timed[0].per_second
+    theirs = timed[1].per_second if panda is not None else None
+    return {
+        "low_level_steps_per_s": ours,
+        "panda_push_v3_steps_per_s": theirs,
+        "low_level_vs_panda_ratio": None if theirs is None else ours / theirs,
+    }
 
 
 def bench_trajectory(steps: int, seed: int = 0) -> dict[str, float]:
@@ -93,19 +124,15 @@ def bench_resets(resets: int) -> dict[str, float]:
     return {"reset_ms": 1e3 * elapsed / resets, "rss_growth_mb": growth, "resets": resets}
 
 
-def bench_panda(steps: int) -> float | None:
-    """PandaPush-v3 steps/s in this process, or None without panda-gym (the bench extra)."""
+def _make_panda() -> gym.Env | None:
+    """panda-gym's PandaPush-v3, or None without panda-gym (the bench extra)."""
     try:
         import panda_gym  # noqa: F401
     except ImportError:
         print("PandaPush-v3 not measured: pip install -e '.[bench]'", file=sys.stderr)
         return None
     with native_stdout_muted():
-        env = gym.make("PandaPush-v3")
-    try:
-        return _steps_per_second(env, steps, "PandaPush-v3 steps")
-    finally:
-        env.close()
+        return gym.make("PandaPush-v3")
 
 
 def bench_env(steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000) -> dict[str, Any]:
@@ -114,12 +141,7 @@ def bench_env(steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000)
         "python": platform.python_version(),
         "machine": platform.machine(),
     }
-    result["low_level_steps_per_s"] = bench_low_level(steps)
+    result.update(bench_low_level(steps))
     result.update(bench_trajectory(trajectory_steps))
     result.update(bench_resets(resets))
-    panda = bench_panda(steps)
-    result["panda_push_v3_steps_per_s"] = panda
-    result["low_level_vs_panda_ratio"] = (
-        None if panda is None else result["low_level_steps_per_s"] / panda
-    )
     return result

@@ -1,4 +1,5 @@
-"""ClutterRetrieve-v0 against the Gymnasium contract, determinism, bad input and the task rules."""
+"""The registered variants against the Gymnasium contract, determinism, bad input and the task
+rules (the learning-specific parts of the end-effector variants: tests/test_rl_env.py)."""
 
 from __future__ import annotations
 
@@ -15,11 +16,11 @@ from gymnasium.utils.env_checker import check_env
 
 import clutter_gym
 from agents.scripted import DirectGraspPolicy
-from clutter_gym.env import CONTROL_MODES, ClutterRetrieveEnv
+from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model import herb as hm
+from clutter_gym.model.reachability import approach_rotation
 from clutter_gym.model.scene import scene_to_dict
 from clutter_gym.model.world import TABLE
-from planners.actions.grasp_geometry import approach_rotation
 
 CAN_SCENE = {
     "format": "clutter-gym-scene/1",
@@ -43,28 +44,46 @@ def hold_action(env: ClutterRetrieveEnv, obs: dict[str, np.ndarray]) -> np.ndarr
     return np.tile(row, (env.action_space.shape[0], 1)).astype(np.float32)
 
 
+OPEN_AND_HOLD = np.array([0.0, 0.0, 0.0, 0.0, -1.0], dtype=np.float32)
+"""An end-effector action that holds the arm where it is and keeps the hand open."""
+
+
+def still_action(env: gym.Env, obs: dict[str, np.ndarray]) -> np.ndarray:
+    """The action of any variant that keeps the arm where it is and the hand open."""
+    if isinstance(env.unwrapped, ClutterRetrieveEnv):
+        return hold_action(env.unwrapped, obs)
+    return OPEN_AND_HOLD
+
+
+TRAJECTORY_ID = "ClutterRetrieve-v0"
+EE_IDS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0")
+
+
 @pytest.mark.parametrize("env_id", clutter_gym.ENV_IDS)
-@pytest.mark.parametrize("control_mode", CONTROL_MODES)
-def test_gymnasium_checker(env_id: str, control_mode: str) -> None:
-    env = gym.make(env_id, control_mode=control_mode, level="none")
+def test_gymnasium_checker(env_id: str) -> None:
+    env = gym.make(env_id, level="none")
     check_env(env.unwrapped, skip_render_check=True)
     env.close()
 
 
 @pytest.mark.parametrize(
-    "control_mode", [pytest.param("trajectory", marks=pytest.mark.slow), "ee_delta"]
+    "env_id",
+    [
+        pytest.param(i, marks=pytest.mark.slow) if i == TRAJECTORY_ID else i
+        for i in clutter_gym.ENV_IDS
+    ],
 )
-def test_stable_baselines3_checker(control_mode: str) -> None:
+def test_stable_baselines3_checker(env_id: str) -> None:
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-    env = gym.make("ClutterRetrieve-v0", control_mode=control_mode, level="none")
+    env = gym.make(env_id, level="none")
     sb3_check_env(env.unwrapped, warn=False)
     env.close()
 
 
-def rollout_digest(seed: int, control_mode: str, steps: int) -> str:
+def rollout_digest(seed: int, env_id: str, steps: int) -> str:
     """Hash of every observation, reward and info of a seeded rollout with seeded actions."""
-    env = gym.make("ClutterRetrieve-v0", control_mode=control_mode, level="high")
+    env = gym.make(env_id, level="high")
     obs, info = env.reset(seed=seed)
     env.action_space.seed(seed)
     digest = hashlib.sha256()
@@ -77,7 +96,7 @@ def rollout_digest(seed: int, control_mode: str, steps: int) -> str:
 
     feed(obs, info)
     for _ in range(steps):
-        if control_mode == "trajectory":
+        if env_id == TRAJECTORY_ID:
             action = hold_action(env.unwrapped, obs)  # type: ignore[arg-type]
             action[:, 7:] = env.action_space.sample()[:, 7:]
         else:
@@ -90,14 +109,17 @@ def rollout_digest(seed: int, control_mode: str, steps: int) -> str:
     return digest.hexdigest()
 
 
-@pytest.mark.parametrize(("control_mode", "steps"), [("ee_delta", 40), ("trajectory", 2)])
-def test_same_seed_same_rollout_in_process(control_mode: str, steps: int) -> None:
-    assert rollout_digest(3, control_mode, steps) == rollout_digest(3, control_mode, steps)
-    assert rollout_digest(3, control_mode, steps) != rollout_digest(4, control_mode, steps)
+@pytest.mark.parametrize(("env_id", "steps"), [*((i, 40) for i in EE_IDS), (TRAJECTORY_ID, 2)])
+def test_same_seed_same_rollout_in_process(env_id: str, steps: int) -> None:
+    assert rollout_digest(3, env_id, steps) == rollout_digest(3, env_id, steps)
+    assert rollout_digest(3, env_id, steps) != rollout_digest(4, env_id, steps)
 
 
 def test_same_seed_same_rollout_across_processes() -> None:
-    code = "from tests.test_env import rollout_digest; print(rollout_digest(7, 'ee_delta', 40))"
+    code = (
+        "from tests.test_env import rollout_digest; "
+        "print(rollout_digest(7, 'ClutterRetrieveEE-v0', 40))"
+    )
     root = Path(__file__).resolve().parents[1]
     other = (
         subprocess.run(
@@ -106,19 +128,15 @@ def test_same_seed_same_rollout_across_processes() -> None:
         .stdout.strip()
         .splitlines()[-1]
     )
-    assert other == rollout_digest(7, "ee_delta", 40)
+    assert other == rollout_digest(7, "ClutterRetrieveEE-v0", 40)
 
 
 def test_async_vector_env() -> None:
     envs = gym.make_vec(
-        "ClutterRetrieve-v0",
-        num_envs=2,
-        vectorization_mode="async",
-        control_mode="ee_delta",
-        level="medium",
+        "ClutterRetrieveEE-v0", num_envs=2, vectorization_mode="async", level="medium"
     )
     obs, _ = envs.reset(seed=0)
-    assert obs["object_poses"].shape == (2, 8, 3)
+    assert obs["observation"].shape == (2, 101) and obs["desired_goal"].shape == (2, 3)
     obs, rewards, terminated, _, _ = envs.step(envs.action_space.sample())
     assert rewards.shape == (2,) and terminated.dtype == np.bool_
     envs.close()
@@ -196,15 +214,16 @@ def test_sampled_scenes_follow_the_seed() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [
-        ({"control_mode": "torque"}, "control_mode"),
         ({"level": "extreme"}, "level"),
+        ({"goal_kind": "dumbbell"}, "goal_kind"),
+        ({"scenes": []}, "scenes"),
+        ({"gamma": 1.5}, "gamma"),
         ({"surface": "floor"}, "surface"),
         ({"noise": "sigma9"}, "noise"),
         ({"noise": (-0.1, 0.0)}, "noise"),
         ({"reward_type": "shaped"}, "reward_type"),
         ({"render_mode": "rgb"}, "render_mode"),
         ({"waypoints": 0}, "waypoints"),
-        ({"step_limit": 0}, "step_limit"),
     ],
 )
 def test_bad_constructor_arguments_name_the_field(kwargs: dict[str, object], field: str) -> None:
@@ -212,11 +231,11 @@ def test_bad_constructor_arguments_name_the_field(kwargs: dict[str, object], fie
         gym.make("ClutterRetrieve-v0", **kwargs)
 
 
-@pytest.mark.parametrize("control_mode", CONTROL_MODES)
-def test_bad_actions_raise_and_leave_the_world_intact(control_mode: str) -> None:
-    env = make(control_mode=control_mode)
+@pytest.mark.parametrize("env_id", [TRAJECTORY_ID, *EE_IDS])
+def test_bad_actions_raise_and_leave_the_world_intact(env_id: str) -> None:
+    env = gym.make(env_id).unwrapped
     obs, info = env.reset(seed=0, options={"scene": CAN_SCENE})
-    good = hold_action(env, obs) if control_mode == "trajectory" else np.zeros(5, np.float32)
+    good = still_action(env, obs)
     with pytest.raises(ValueError, match="shape"):
         env.step(good[:-1])
     nan = good.copy()
@@ -284,14 +303,6 @@ def test_toppled_object_is_a_failure() -> None:
     env.close()
 
 
-def test_truncation_at_step_limit() -> None:
-    env = make(step_limit=2)
-    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
-    results = [env.step(hold_action(env, obs))[2:4] for _ in range(2)]
-    assert results == [(False, False), (False, True)]
-    env.close()
-
-
 def test_hand_distal_joints_follow_proximal() -> None:
     env = make()
     obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
@@ -325,17 +336,6 @@ def test_shelf_goal_brought_into_the_region_is_a_success() -> None:
     env.sim.step(24)
     outcome = env.task.evaluate()
     assert outcome.success and not outcome.failure
-    env.close()
-
-
-def test_dense_reward_is_minus_the_scaled_hand_to_goal_distance() -> None:
-    env = make(reward_type="dense")
-    obs, _ = env.reset(seed=0, options={"scene": CAN_SCENE})
-    _, reward, _, _, info = env.step(hold_action(env, obs))
-    tcp = env.herb.tcp_pose()[0]
-    can = info["true_object_poses"][0]
-    centre = np.array([can[0], can[1], 0.735 + 0.061])
-    assert reward == pytest.approx(-0.1 * np.linalg.norm(tcp - centre), abs=1e-3)
     env.close()
 
 

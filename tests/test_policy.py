@@ -22,7 +22,7 @@ LONE_CAN = lone_can("sigma3")
 def rollout(
     scene: Any, policy_kwargs: dict[str, Any], seed: int = 0
 ) -> tuple[dict, RearrangePolicy]:
-    env = gym.make("ClutterRetrieve-v0", step_limit=40)
+    env = gym.make("ClutterRetrieve-v0", max_episode_steps=40)
     try:
         obs, info = env.reset(seed=seed, options={"scene": scene})
         policy = RearrangePolicy(16, names=info["object_names"], **policy_kwargs)

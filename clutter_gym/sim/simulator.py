@@ -17,6 +17,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet
@@ -26,6 +27,8 @@ from clutter_gym.model.objects import ObjectSpec
 from clutter_gym.model.world import Box
 
 TIMESTEP = 1.0 / 240.0
+Transform = tuple[tuple[float, ...], tuple[float, ...]]
+"""A pybullet (position, quaternion) pair."""
 GRAVITY = -9.81
 
 
@@ -57,16 +60,28 @@ def native_stdout_muted() -> Iterator[None]:
         os.close(saved)
 
 
+class _Client(BulletClient):
+    """A `BulletClient` that binds each pybullet function to its client once: the stock one
+    builds a new `functools.partial` on every call (~1.5 us, about 20 calls per env step)."""
+
+    def __getattr__(self, name: str) -> Any:
+        attribute = super().__getattr__(name)
+        if name != "disconnect":  # the stock client marks itself closed on this lookup
+            setattr(self, name, attribute)
+        return attribute
+
+
 class Simulator:
     """One pybullet world: builds bodies by name, steps, renders, answers contact queries."""
 
     def __init__(self, timestep: float = TIMESTEP, solver_iterations: int = 20) -> None:
         with native_stdout_muted():
-            self._client: BulletClient | None = BulletClient(connection_mode=pybullet.DIRECT)
+            self._client: BulletClient | None = _Client(connection_mode=pybullet.DIRECT)
         self.timestep = timestep
         self.solver_iterations = solver_iterations
         self._bodies: dict[str, int] = {}
-        self._inertial: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {}
+        self._inertial: dict[str, Transform] = {}
+        self._to_base: dict[str, Transform] = {}
         self.clear()
 
     @property
@@ -87,6 +102,7 @@ class Simulator:
         c.setGravity(0.0, 0.0, GRAVITY)
         self._bodies = {}
         self._inertial = {}
+        self._to_base = {}
 
     def close(self) -> None:
         if self._client is not None:
@@ -104,12 +120,16 @@ class Simulator:
     def body_names(self) -> list[str]:
         return list(self._bodies)
 
-    def load_urdf(self, name: str, path: Path, fixed_base: bool = True) -> int:
-        body_id = self.client.loadURDF(
-            str(path),
-            useFixedBase=fixed_base,
-            flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
-        )
+    def load_urdf(
+        self, name: str, path: Path, fixed_base: bool = True, merge_fixed_links: bool = False
+    ) -> int:
+        """A URDF body; with `merge_fixed_links`, links on fixed joints fold into their parents
+        (the same rigid bodies in fewer links; pybullet then prints its merges on stdout)."""
+        flags = pybullet.URDF_USE_INERTIA_FROM_FILE
+        if merge_fixed_links:
+            flags |= pybullet.URDF_MERGE_FIXED_LINKS
+        with native_stdout_muted():
+            body_id = self.client.loadURDF(str(path), useFixedBase=fixed_base, flags=flags)
         self._register(name, body_id)
         return body_id
 
@@ -176,6 +196,7 @@ class Simulator:
         self._bodies[name] = body_id
         info = self.client.getDynamicsInfo(body_id, -1)
         self._inertial[name] = (info[3], info[4])
+        self._to_base[name] = self.client.invertTransform(info[3], info[4])
 
     def sleep(self, name: str) -> None:
         """Put a resting body to sleep now rather than after Bullet's 2 s of rest; contact with
@@ -196,13 +217,18 @@ class Simulator:
         pybullet reports the base's centre of mass; this converts to the body's own frame
         (for objects: the centre of the base, on the surface).
         """
+        pos, quat = self._base_pose(name)
+        return np.array(pos), np.array(quat)
+
+    def base_poses(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """`base_pose` of several bodies: positions (N, 3) and quaternions (N, 4)."""
+        poses = [self._base_pose(name) for name in names]
+        return np.array([p for p, _ in poses]), np.array([q for _, q in poses])
+
+    def _base_pose(self, name: str) -> Transform:
         c = self.client
         com_pos, com_quat = c.getBasePositionAndOrientation(self.body(name))
-        inertial_pos, inertial_quat = self._inertial[name]
-        pos, quat = c.multiplyTransforms(
-            com_pos, com_quat, *c.invertTransform(inertial_pos, inertial_quat)
-        )
-        return np.array(pos), np.array(quat)
+        return c.multiplyTransforms(com_pos, com_quat, *self._to_base[name])
 
     def set_base_pose(self, name: str, position: Sequence[float], quat: Sequence[float]) -> None:
         """Teleport a body's base frame (tests and resets only, never during an episode)."""

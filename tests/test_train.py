@@ -1,0 +1,484 @@
+"""`clutter-gym train` and `clutter-gym plot-training`.
+
+Bad input is one line, exit status 2, before any training; a tiny PPO run leaves its evaluation
+CSV, TensorBoard log, checkpoint, best and final models and run.json; Ctrl-C saves a checkpoint
+and the same command resumes from it (an off-policy run with its replay buffer); a finished run
+does nothing; a grid on Ray gives the local grid's numbers; the training plot is a PNG.
+
+Runs are tiny (a few hundred env steps of 20-step episodes) and their numbers mean nothing
+about learning: the dense variant is used because its returns are real numbers, so that equal
+CSVs say that two runs really computed the same thing."""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from agents.cli import main
+from agents.rl_config import ALGOS, HYPERPARAMS, load_hyperparams
+from agents.train import EVAL_COLUMNS, read_eval_csv
+from agents.trained import TrainedRun, read_run
+from agents.training_plots import Curve, band
+from clutter_gym import ENV_IDS
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = "ClutterRetrieveEEDense-v0"
+SCENES = {"level": "none", "goal_kind": "soda_can", "max_episode_steps": 20}
+TINY: dict[str, Any] = {
+    "policy": "MultiInputPolicy",
+    "n_steps": 64,
+    "batch_size": 32,
+    "n_epochs": 2,
+    "normalize": True,
+    "policy_kwargs": {"net_arch": [16, 16]},
+    "env_kwargs": SCENES,
+}
+"""A PPO entry that trains in seconds."""
+TINY_SAC: dict[str, Any] = {
+    "policy": "MultiInputPolicy",
+    "buffer_size": 5000,
+    "learning_starts": 64,
+    "batch_size": 32,
+    "replay_buffer_class": "HerReplayBuffer",
+    "replay_buffer_kwargs": {"goal_selection_strategy": "future", "copy_info_dict": True},
+    "policy_kwargs": {"net_arch": [16, 16]},
+    "env_kwargs": SCENES,
+}
+
+
+def write_config(path: Path, entry: dict[str, Any] | None = None, env: str = ENV) -> Path:
+    path.write_text(yaml.safe_dump({env: TINY if entry is None else entry}))
+    return path
+
+
+def train_argv(config: Path, out: Path, /, **flags: str | None) -> list[str]:
+    """`train` of the tiny entry; ``flags`` (``n_envs="2"``) override or, with None, remove."""
+    base: dict[str, str | None] = {
+        "algo": "ppo",
+        "env": ENV,
+        "config": str(config),
+        "out": str(out),
+        "steps": "256",
+        "eval_freq": "128",
+        "eval_episodes": "2",
+    }
+    argv = ["train"]
+    for flag, value in {**base, **flags}.items():
+        if value is not None:
+            argv += [f"--{flag.replace('_', '-')}", value]
+    return argv
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def train_tiny(out: Path, config: Path, capsys: pytest.CaptureFixture[str], **flags: str) -> str:
+    """Train the tiny PPO entry into ``out``; stdout (one JSON line per run)."""
+    code, stdout, err = run(train_argv(config, out, **flags), capsys)
+    assert code == 0, err
+    return stdout
+
+
+# --- bad input ---------------------------------------------------------------------------------
+
+BAD_FLAGS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
+    ("unknown algo", {"algo": "dqn"}, ("--algo", "'dqn'", "ppo, sac, tqc")),
+    ("one algo unknown", {"algo": "ppo,a2c"}, ("--algo", "'a2c'", "ppo, sac, tqc")),
+    ("unknown env", {"env": "Nope-v0"}, ("--env", "Nope-v0", "ClutterRetrieveEE-v0")),
+    ("seed and seeds", {"seed": "1", "seeds": "0,1"}, ("--seeds", "not allowed with")),
+    ("bad seeds", {"seeds": "0,x"}, ("--seeds", "'x'", "integer >= 0")),
+    ("steps 0", {"steps": "0"}, ("--steps", "integer >= 1")),
+    ("n-envs 0", {"n_envs": "0"}, ("--n-envs", "integer >= 1")),
+    ("backend", {"backend": "dask"}, ("--backend", "dask", "local", "ray")),
+    ("config missing", {"config": "/nonexistent/ppo.yml"}, ("--config", "no such file")),
+    ("out under a file", {"out": "{file}/run"}, ("--out", "is a file")),
+    ("no steps anywhere", {"steps": None}, ("--steps", "not given", "n_timesteps")),
+]
+
+BAD_ENTRIES: list[tuple[str, dict[str, Any], tuple[str, ...]]] = [
+    ("unknown key", {**TINY, "learning_rat": 0.1}, ("unknown key 'learning_rat'", "learning_rate")),
+    ("unknown zoo-style key", {**TINY, "frame_stack": 4}, ("'frame_stack'", "n_timesteps")),
+    ("normalize key", {**TINY, "normalize": {"norm_obz": True}}, ("norm_obz", "norm_obs")),
+    ("schedule", {**TINY, "learning_rate": "exp_0.1"}, ("learning_rate", "lin_<number > 0>")),
+    ("activation", {**TINY, "policy_kwargs": {"activation_fn": "swish"}}, ("swish", "tanh")),
+    ("bad value", {**TINY, "batch_size": "big"}, ("ppo cannot use this entry",)),
+    ("env keyword", {**TINY, "env_kwargs": {"level": "extreme"}}, ("env_kwargs", "extreme")),
+    ("budget", {**TINY, "n_timesteps": -5}, ("n_timesteps", "must be >= 1")),
+]
+
+
+@pytest.mark.parametrize(
+    ("flags", "texts"), [c[1:] for c in BAD_FLAGS], ids=[c[0] for c in BAD_FLAGS]
+)
+def test_bad_flags_are_one_line_before_any_work(
+    flags: dict[str, str | None],
+    texts: tuple[str, ...],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    (tmp_path / "file").write_text("a regular file")
+    config = write_config(tmp_path / "tiny.yml")
+    flags = {k: v.replace("{file}", str(tmp_path / "file")) if v else v for k, v in flags.items()}
+    code, out, err = run(train_argv(config, tmp_path / "run", **flags), capsys)
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    for text in texts:
+        assert text in err, err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    ("entry", "texts"), [c[1:] for c in BAD_ENTRIES], ids=[c[0] for c in BAD_ENTRIES]
+)
+def test_bad_config_entries_are_one_line_before_any_work(
+    entry: dict[str, Any],
+    texts: tuple[str, ...],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    config = write_config(tmp_path / "tiny.yml", entry)
+    code, _, err = run(train_argv(config, tmp_path / "run"), capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"--config {config}" in err and ENV in err
+    for text in texts:
+        assert text in err, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_an_env_without_an_entry_names_the_ones_there(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = write_config(tmp_path / "tiny.yml", env="ClutterRetrieve-v0")
+    code, _, err = run(train_argv(config, tmp_path / "run"), capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert f"has no entry for {ENV}; it has: ClutterRetrieve-v0" in err
+    (tmp_path / "bad.yml").write_text("a: [1, 2\n")
+    code, _, err = run(train_argv(tmp_path / "bad.yml", tmp_path / "run"), capsys)
+    assert code == 2 and "not valid YAML" in err and len(err.strip().splitlines()) == 1
+
+
+def test_shipped_hyperparameters_name_registered_ids_and_known_keys() -> None:
+    for algo in ALGOS:
+        entries = yaml.safe_load((HYPERPARAMS / f"{algo}.yml").read_text())
+        assert set(entries) <= set(ENV_IDS), algo
+        for env_id in entries:
+            hp = load_hyperparams(algo, env_id)  # raises on an unknown key
+            assert hp.n_timesteps and hp.policy in ("MultiInputPolicy", "MlpPolicy")
+            her = hp.algo_kwargs.get("replay_buffer_class") == "HerReplayBuffer"
+            if her:
+                assert hp.algo_kwargs["replay_buffer_kwargs"]["copy_info_dict"] is True
+            assert her == (algo != "ppo" and env_id.startswith("ClutterRetrieveEE")), env_id
+            if "gamma" in hp.env_kwargs:  # the dense reward shapes with the agent's discount
+                assert hp.env_kwargs["gamma"] == hp.algo_kwargs["gamma"]
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_shipped_goal_env_entries_build_their_model(algo: str) -> None:
+    """Each algorithm's entry for the sparse end-effector variant (HER for SAC and TQC) builds
+    its model on the env (what train checks before it starts)."""
+    from agents.train import GridRequest, TrainJob, check_build, plan_runs
+
+    hp = load_hyperparams(algo, "ClutterRetrieveEE-v0")
+    request = GridRequest((algo,), hp.env_id, None, 1000, 1, (0,), False, Path("x"), None, 1, None)
+    (job,) = plan_runs(request, {algo: hp})
+    assert isinstance(job, TrainJob)
+    check_build(job)
+
+
+def test_an_algorithm_that_cannot_act_in_the_action_space_is_one_line(tmp_path: Path) -> None:
+    """SAC needs a Box action space (CartPole's is Discrete, as the primitive variant's is
+    MultiDiscrete): refused by the check that builds the model, before any run."""
+    from agents.train import GridRequest, check_build, plan_runs
+
+    config = write_config(tmp_path / "c.yml", {"learning_starts": 1}, env="CartPole-v1")
+    hp = load_hyperparams("sac", "CartPole-v1", config)
+    request = GridRequest(("sac",), "CartPole-v1", config, 10, 1, (0,), False, tmp_path, 5, 1, 5)
+    (job,) = plan_runs(request, {"sac": hp})
+    with pytest.raises(ValueError, match=r"CartPole-v1: sac cannot use this entry: .*Discrete"):
+        check_build(job)
+
+
+# --- one run -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "env_id",
+    [pytest.param("ClutterRetrieve-v0", marks=pytest.mark.slow), "ClutterRetrievePrimitive-v0"],
+)
+def test_any_registered_variant_trains_whatever_its_spaces(
+    env_id: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Dict observation and (K, 9) Box actions; Box observation and MultiDiscrete actions (the
+    policy follows the observation when the entry names none)."""
+    entry = {
+        "n_steps": 8,
+        "batch_size": 8,
+        "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [16]},
+        "env_kwargs": {"level": "none", "goal_kind": "soda_can"},
+    }
+    config = write_config(tmp_path / "c.yml", entry, env=env_id)
+    flags = {"env": env_id, "steps": "8", "eval_freq": "8", "eval_episodes": "1"}
+    (record,) = map(json.loads, train_tiny(tmp_path / "run", config, capsys, **flags).splitlines())
+    assert record["status"] == "finished" and record["timesteps"] == 8
+    assert [r["timesteps"] for r in read_eval_csv(tmp_path / "run" / "eval.csv")] == [8]
+
+
+def test_a_tiny_ppo_run_leaves_its_logs_models_and_run_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    config = write_config(tmp_path / "tiny.yml")
+    (record,) = map(json.loads, train_tiny(out, config, capsys).splitlines())
+    assert record["status"] == "finished" and record["timesteps"] == 256 and record["seed"] == 0
+    rows = read_eval_csv(out / "eval.csv")
+    assert (out / "eval.csv").read_text().splitlines()[0] == ",".join(EVAL_COLUMNS)
+    assert [r["timesteps"] for r in rows] == [128, 256]
+    assert all(r["mean_length"] == 20 and 0 <= r["success_rate"] <= 1 for r in rows)
+    for name in ("best_model.zip", "best_vecnormalize.pkl", "final_model.zip", "vecnormalize.pkl"):
+        assert (out / name).is_file(), name
+    latest = json.loads((out / "checkpoints" / "latest.json").read_text())
+    assert latest["steps"] == 256 and latest["replay_buffer"] is None
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == sorted(
+        ["latest.json", latest["model"], latest["vecnormalize"]]
+    )  # only the checkpoint in force is kept
+    assert list((out / "tb").rglob("events.out.tfevents.*"))
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "finished" and meta["seed"] == 0 and meta["timesteps"] == 256
+    assert meta["settings"]["hyperparams"]["n_steps"] == 64 and meta["config"] == str(config)
+    assert meta["versions"]["stable-baselines3"] != "not installed"
+    best = json.loads((out / "best.json").read_text())
+    assert best["success_rate"] == max(r["success_rate"] for r in rows)
+    assert read_run(out) == TrainedRun(
+        out, "ppo", ENV, SCENES, out / "best_model.zip", out / "best_vecnormalize.pkl"
+    )
+
+    # The same command again: finished, nothing done. Other settings: refused, in one line.
+    stamp = (out / "final_model.zip").stat().st_mtime_ns
+    code, again, err = run(train_argv(config, out), capsys)
+    assert code == 0 and "already finished; nothing to do" in err
+    assert json.loads(again)["status"] == "finished"
+    assert (out / "final_model.zip").stat().st_mtime_ns == stamp
+    code, _, err = run(train_argv(config, out, steps="512"), capsys)
+    assert code == 2 and "holds a run with other settings (differs in steps)" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def _clutter_gym(argv: list[str]) -> subprocess.Popen[str]:
+    """The command in its own process group, as a terminal runs it (Ctrl-C reaches the group)."""
+    script = Path(sys.executable).with_name("clutter-gym")
+    return subprocess.Popen(
+        [str(script), *argv], text=True, start_new_session=True,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+
+
+def _interrupt_after_first_checkpoint(argv: list[str], *runs: Path) -> tuple[int, str]:
+    """Ctrl-C once every run has a checkpoint; (exit status, stderr)."""
+    process = _clutter_gym(argv)
+    latest = [run / "checkpoints" / "latest.json" for run in runs]
+    deadline = time.monotonic() + 180
+    while not all(p.exists() for p in latest) and process.poll() is None:
+        assert time.monotonic() < deadline, "no checkpoint in time"
+        time.sleep(0.05)
+    assert process.poll() is None, "the run ended before it could be interrupted"
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C: to the trainer and its env workers
+    _, err = process.communicate(timeout=120)
+    return process.returncode, err
+
+
+def _resume_and_check(argv: list[str], out: Path, steps: int) -> dict[str, Any]:
+    """Interrupt after the first checkpoint, then the same command: it resumes from the
+    interrupt's checkpoint, keeps the rows before it and finishes; the final latest.json."""
+    code, err = _interrupt_after_first_checkpoint(argv, out)
+    assert code == 130 and "checkpoint saved" in err, err[-2000:]
+    stopped = json.loads((out / "checkpoints" / "latest.json").read_text())["steps"]
+    assert 0 < stopped < steps
+    before = read_eval_csv(out / "eval.csv")
+    assert before and all(r["timesteps"] <= stopped for r in before)
+
+    process = _clutter_gym(argv)
+    stdout, err = process.communicate(timeout=300)
+    assert process.returncode == 0, err[-2000:]
+    assert f"resuming {json.loads(stdout)['algo']}_seed0 from step {stopped}" in err
+    latest = json.loads((out / "checkpoints" / "latest.json").read_text())
+    assert latest["steps"] >= steps
+    after = read_eval_csv(out / "eval.csv")
+    assert after[: len(before)] == before
+    assert [r["timesteps"] for r in after] == sorted({r["timesteps"] for r in after})
+    assert after[-1]["timesteps"] == latest["steps"]
+    return latest
+
+
+def test_ctrl_c_saves_a_checkpoint_and_the_same_command_resumes(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    config = write_config(tmp_path / "tiny.yml")
+    argv = train_argv(config, out, steps="1024", eval_freq="256", eval_episodes="1")
+    _resume_and_check(argv, out, 1024)
+    assert json.loads((out / "run.json").read_text())["status"] == "finished"
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_every_run_of_a_parallel_grid_and_the_same_command_resumes_them(
+    tmp_path: Path,
+) -> None:
+    """Two runs in the job runner's worker processes: each saves a checkpoint and stops."""
+    out = tmp_path / "grid"
+    config = write_config(tmp_path / "tiny.yml")
+    argv = train_argv(
+        config, out, seeds="0,1", workers="2", steps="768", eval_freq="256", eval_episodes="1"
+    )
+    runs = [out / f"ppo_seed{seed}" for seed in (0, 1)]
+    code, err = _interrupt_after_first_checkpoint(argv, *runs)
+    assert code == 130, err[-2000:]
+    stopped = [json.loads((r / "checkpoints" / "latest.json").read_text())["steps"] for r in runs]
+    assert all(0 < steps < 768 for steps in stopped), stopped
+    process = _clutter_gym(argv)
+    stdout, err = process.communicate(timeout=300)
+    assert process.returncode == 0, err[-2000:]
+    assert [json.loads(line)["status"] for line in stdout.splitlines()] == ["finished"] * 2
+    for seed, steps in enumerate(stopped):
+        assert f"resuming ppo_seed{seed} from step {steps}" in err
+
+
+@pytest.mark.slow
+def test_off_policy_resume_keeps_the_replay_buffer(tmp_path: Path) -> None:
+    """SAC with HER: the resumed run goes on with the interrupted run's transitions."""
+    out = tmp_path / "run"
+    config = write_config(tmp_path / "sac.yml", TINY_SAC)
+    argv = train_argv(config, out, algo="sac", steps="600", eval_freq="200", eval_episodes="1")
+    latest = _resume_and_check(argv, out, 600)
+    with (out / "checkpoints" / latest["replay_buffer"]).open("rb") as handle:
+        buffer = pickle.load(handle)
+    assert buffer.size() >= 590  # the run's transitions, before and after the interrupt
+
+
+@pytest.mark.slow
+def test_ctrl_c_with_worker_processes(tmp_path: Path) -> None:
+    """Two envs in spawned workers: they ignore the Ctrl-C, the trainer saves and resumes."""
+    out = tmp_path / "run"
+    config = write_config(tmp_path / "tiny.yml")
+    argv = train_argv(config, out, steps="768", eval_freq="256", eval_episodes="1", n_envs="2")
+    _resume_and_check(argv, out, 768)
+
+
+# --- grids ---------------------------------------------------------------------------------------
+
+
+def _final_parameters(run: Path) -> dict[str, np.ndarray]:
+    from stable_baselines3 import PPO
+
+    model = PPO.load(run / "final_model.zip", device="cpu")
+    return {k: v.numpy() for k, v in model.policy.state_dict().items()}
+
+
+@pytest.mark.slow
+def test_a_ray_grid_gives_the_local_grids_numbers(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = write_config(tmp_path / "tiny.yml", {**TINY, "normalize": False})
+    local, ray = tmp_path / "local", tmp_path / "ray"
+    train_tiny(local, config, capsys, seeds="0,1")
+    train_tiny(ray, config, capsys, seeds="0,1", backend="ray", workers="2")
+    for seed in (0, 1):
+        a, b = local / f"ppo_seed{seed}", ray / f"ppo_seed{seed}"
+        assert (a / "eval.csv").read_text() == (b / "eval.csv").read_text()
+        first, second = _final_parameters(a), _final_parameters(b)
+        assert all(np.array_equal(first[k], second[k]) for k in first)
+    # Not equal by accident: the seeds' runs differ.
+    assert read_eval_csv(local / "ppo_seed0" / "eval.csv") != read_eval_csv(
+        local / "ppo_seed1" / "eval.csv"
+    )
+
+
+def test_a_local_grid_puts_each_algorithm_and_seed_in_its_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "both.yml"
+    config.write_text(yaml.safe_dump({ENV: {**TINY, "normalize": False}}))
+    out = tmp_path / "grid"
+    stdout = train_tiny(out, config, capsys, seeds="0,1", steps="128", eval_freq="128")
+    records = [json.loads(line) for line in stdout.splitlines()]
+    assert [(r["algo"], r["seed"], r["status"]) for r in records] == [
+        ("ppo", 0, "finished"),
+        ("ppo", 1, "finished"),
+    ]
+    for seed in (0, 1):
+        run_json = json.loads((out / f"ppo_seed{seed}" / "run.json").read_text())
+        assert run_json["seed"] == seed and run_json["algo"] == "ppo"
+    assert (out / "train_jobs.jsonl").is_file()
+
+
+# --- plot-training -------------------------------------------------------------------------------
+
+
+def _fake_run(directory: Path, algo: str, seed: int, rows: list[tuple[int, float]]) -> Path:
+    """A run's eval.csv and run.json, as plot-training reads them."""
+    directory.mkdir(parents=True)
+    lines = [",".join(EVAL_COLUMNS), *(f"{t},{s},0,20" for t, s in rows)]
+    (directory / "eval.csv").write_text("\n".join(lines) + "\n")
+    (directory / "run.json").write_text(json.dumps({"algo": algo, "env": ENV, "seed": seed}))
+    return directory
+
+
+def test_band_is_mean_min_and_max_over_seeds_on_common_steps() -> None:
+    def curve(steps: list[int], success: list[float]) -> Curve:
+        return Curve(Path("x"), "ppo", ENV, 0, np.array(steps), np.array(success))
+
+    steps, mean, low, high = band([curve([0, 100, 200], [0, 0.5, 1]), curve([0, 200], [0, 0.5])])
+    assert steps.tolist() == [0, 100, 200]
+    assert mean.tolist() == [0, 0.375, 0.75]
+    assert low.tolist() == [0, 0.25, 0.5] and high.tolist() == [0, 0.5, 1]
+
+
+def test_plot_training_writes_a_png_grouped_by_algorithm_and_env(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    grid = tmp_path / "grid"
+    for seed in (0, 1, 2):
+        _fake_run(grid / f"ppo_seed{seed}", "ppo", seed, [(0, 0), (100, 0.1 * seed), (200, 0.5)])
+    other = _fake_run(tmp_path / "sac", "sac", 0, [(100, 0.2), (200, 0.9)])
+    png = tmp_path / "fig" / "curves.png"
+    code, out, err = run(["plot-training", str(grid), str(other), "--out", str(png)], capsys)
+    assert code == 0, err
+    assert out.strip() == f"wrote {png} (4 runs)"
+    with Image.open(png) as image:
+        assert image.format == "PNG" and image.size[0] > 400
+
+
+@pytest.mark.parametrize(
+    ("setup", "texts"),
+    [
+        ("empty", ("no eval.csv",)),
+        ("bad csv", ("not an eval.csv",)),
+        ("missing", ("no such directory",)),
+    ],
+)
+def test_plot_training_bad_input_is_one_line(
+    setup: str, texts: tuple[str, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run_dir = tmp_path / "run"
+    if setup != "missing":
+        run_dir.mkdir()
+    if setup == "bad csv":
+        (run_dir / "eval.csv").write_text("step,reward\n1,2\n")
+    code, _, err = run(["plot-training", str(run_dir), "--out", str(tmp_path / "f.png")], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    for text in texts:
+        assert text in err
+    assert not (tmp_path / "f.png").exists()
