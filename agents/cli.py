@@ -178,7 +178,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     else:
         from clutter_gym.bench import bench_env
 
-        result = bench_env(args.steps, args.trajectory_steps, args.resets)
+        result = bench_env(args.steps, args.trajectory_steps, args.resets, args.primitive_steps)
     line = json.dumps(result, sort_keys=True)
     if args.json:
         write_json(args.json, result)
@@ -309,7 +309,14 @@ class _Parser(argparse.ArgumentParser):
 
 
 class _HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
-    """The module docstring as written, and every option's default in --help."""
+    """The module docstring as written, and every option's default in --help (once: a help
+    text that already says its default, "(None: ...)" or "(default: ...)", keeps its own)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if "(default:" in text or "(None:" in text:
+            return text
+        return super()._get_help_string(action)
 
 
 def _noise(text: str) -> str | tuple[float, float]:
@@ -466,6 +473,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--trajectory-steps", type=count, default=20, help="env: trajectory steps to time"
     )
     bench.add_argument("--resets", type=count, default=1000, help="env: resets to time")
+    bench.add_argument(
+        "--primitive-steps", type=count, default=100,
+        help="env: ClutterRetrievePrimitive-v0 steps to time (random actions)",
+    )  # fmt: skip
     bench.add_argument(
         "--objects", type=names, default=None, help="capture: comma-separated kinds (default all)"
     )

@@ -15,9 +15,13 @@ from agents.rearrange_policy import RearrangePolicy
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
 from clutter_gym.model.scene import Scene, load_scene, scene_to_dict, shipped_scene
+from planners.actions.settings import PlannerSettings
 
 FRAME_EVERY = 24  # physics steps between GIF frames: 10 frames per simulated second
 DEFAULT_SCENE = "figures/fig3_can_box_dumbbell"
+PLANNING_BUDGET = 60.0
+"""s: the demo's plan takes about 8 s on an idle 2-core machine; the wall-clock budget is
+there to stop a hopeless search, not to fail the demo on a loaded machine."""
 STEP_LIMIT = 40  # env steps of 16 waypoints: room for a plan that moves a few objects
 
 
@@ -35,7 +39,10 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
     gif = out_dir / "demo.gif"
     try:
         obs, info = env.reset(seed=seed, options={"scene": chosen})
-        policy = RearrangePolicy(base.waypoints, names=info["object_names"], seed=seed)
+        settings = PlannerSettings(time_budget=PLANNING_BUDGET, seed=seed)
+        policy = RearrangePolicy(
+            base.waypoints, settings=settings, names=info["object_names"], seed=seed
+        )
         steps, reward_sum, terminated, truncated = 0, 0.0, False, False
         with (
             gif_writer(gif, fps=10) as frames,

@@ -135,7 +135,39 @@ def _make_panda() -> gym.Env | None:
         return gym.make("PandaPush-v3")
 
 
-def bench_env(steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000) -> dict[str, Any]:
+def bench_primitive(steps: int) -> dict[str, float | None]:
+    """Wall time of a ClutterRetrievePrimitive-v0 step under seeded random actions: over every
+    step, and over the steps whose primitive was executed in physics (the rest end at once
+    with the infeasible cost). Made by id: the env is a wrapper above ``planners``."""
+    env = gym.make("ClutterRetrievePrimitive-v0")
+    env.action_space.seed(0)
+    env.reset(seed=0)
+    executed: list[float] = []
+    total = 0.0
+    try:
+        for _ in tqdm(range(steps), desc="primitive steps", unit="step", leave=False):
+            action = env.action_space.sample()
+            start = time.perf_counter()
+            _, _, terminated, truncated, info = env.step(action)
+            elapsed = time.perf_counter() - start
+            total += elapsed
+            if not info["infeasible"]:
+                executed.append(elapsed)
+            if terminated or truncated:
+                env.reset()
+    finally:
+        env.close()
+    return {
+        "primitive_step_s": total / steps,
+        "primitive_executed_step_s": float(np.mean(executed)) if executed else None,
+        "primitive_executed_steps": len(executed),
+        "primitive_steps": steps,
+    }
+
+
+def bench_env(
+    steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000, primitive_steps: int = 100
+) -> dict[str, Any]:
     result: dict[str, Any] = {
         "benchmark": "env",
         "python": platform.python_version(),
@@ -144,4 +176,5 @@ def bench_env(steps: int = 2000, trajectory_steps: int = 20, resets: int = 1000)
     result.update(bench_low_level(steps))
     result.update(bench_trajectory(trajectory_steps))
     result.update(bench_resets(resets))
+    result.update(bench_primitive(primitive_steps))
     return result

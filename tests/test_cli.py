@@ -66,11 +66,12 @@ def test_demo_plans_clears_the_box_and_retrieves_the_can(tmp_path: Path) -> None
 def test_bench_env_writes_json(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
     argv = ["bench", "env", "--steps", "30", "--trajectory-steps", "1", "--resets", "5"]
-    assert main([*argv, "--json", str(out)]) == 0
+    assert main([*argv, "--primitive-steps", "4", "--json", str(out)]) == 0
     result = json.loads(out.read_text())
     for key in ("low_level_steps_per_s", "trajectory_steps_per_s", "reset_ms", "rss_growth_mb"):
         assert result[key] > 0 or key == "rss_growth_mb"
     assert result["resets"] == 5
+    assert result["primitive_steps"] == 4 and result["primitive_step_s"] > 0
 
 
 @pytest.mark.slow

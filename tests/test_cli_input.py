@@ -160,7 +160,7 @@ def _clutter_gym(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
 def test_bench_env_stdout_is_pure_json(tmp_path: Path) -> None:
     pytest.importorskip("panda_gym")  # its pybullet client printed argv[0]=... on stdout
     done = _clutter_gym("bench", "env", "--steps", "20", "--trajectory-steps", "1",
-                        "--resets", "2")  # fmt: skip
+                        "--resets", "2", "--primitive-steps", "2")  # fmt: skip
     assert done.returncode == 0, done.stderr
     (line,) = done.stdout.splitlines()
     assert json.loads(line)["panda_push_v3_steps_per_s"] > 0

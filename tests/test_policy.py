@@ -25,6 +25,8 @@ def rollout(
     env = gym.make("ClutterRetrieve-v0", max_episode_steps=40)
     try:
         obs, info = env.reset(seed=seed, options={"scene": scene})
+        # A budget far above these plans' few seconds: a loaded machine must not cut them.
+        policy_kwargs.setdefault("settings", PlannerSettings(time_budget=120.0))
         policy = RearrangePolicy(16, names=info["object_names"], **policy_kwargs)
         terminated = truncated = False
         while not (terminated or truncated):
