@@ -185,7 +185,7 @@ def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
             yield job, _guarded(spec, job)
         return
     queue, suspects = list(jobs), list[J]()
-    with _FirstInterrupt() as interrupt:
+    with FirstInterrupt("finishing the running jobs and keeping their results") as interrupt:
         while (queue and not interrupt.seen) or suspects:
             alone = bool(suspects)
             batch, limit = (suspects, 1) if alone else (queue, workers)
@@ -213,7 +213,7 @@ def _drain(
     limit: int,
     spec: JobSpec[J],
     suspects: list[J],
-    interrupt: _FirstInterrupt,
+    interrupt: FirstInterrupt,
 ) -> Finished:
     """Run jobs of ``batch`` in the pool, ``limit`` at a time, until the batch is done (or an
     interrupt stops new ones). A worker that dies breaks the pool: the jobs running then join
@@ -239,15 +239,17 @@ def _drain(
             yield job, record
 
 
-class _FirstInterrupt:
-    """While active, the first SIGINT only sets `seen` (running jobs finish and are kept); the
-    second raises KeyboardInterrupt as usual. A no-op outside the main thread."""
+class FirstInterrupt:
+    """While active, the first SIGINT only sets `seen` and prints ``message`` (the caller
+    finishes what runs and keeps it); the second raises KeyboardInterrupt as usual. A no-op
+    outside the main thread."""
 
-    def __init__(self) -> None:
+    def __init__(self, message: str) -> None:
         self.seen = False
+        self.message = message
         self._previous: Any = None
 
-    def __enter__(self) -> _FirstInterrupt:
+    def __enter__(self) -> FirstInterrupt:
         if threading.current_thread() is threading.main_thread():
             self._previous = signal.signal(signal.SIGINT, self._handle)
         return self
@@ -259,11 +261,7 @@ class _FirstInterrupt:
     def _handle(self, *_: object) -> None:
         self.seen = True
         signal.signal(signal.SIGINT, signal.default_int_handler)
-        print(
-            "\ninterrupted: finishing the running jobs and keeping their results "
-            "(Ctrl-C again to stop them now)",
-            file=sys.stderr,
-        )
+        print(f"\ninterrupted: {self.message} (Ctrl-C again to stop now)", file=sys.stderr)
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:

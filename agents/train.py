@@ -38,7 +38,6 @@ import os
 import platform
 import signal
 import sys
-import threading
 import time
 from dataclasses import dataclass
 from importlib import metadata
@@ -51,7 +50,7 @@ from tqdm import tqdm
 
 from agents import trained as files
 from agents.episodes import Act, run_episode
-from agents.jobs import JobSpec, Record, config_digest, run_jobs
+from agents.jobs import FirstInterrupt, JobSpec, Record, config_digest, run_jobs
 from agents.rl_config import (
     Hyperparams,
     algorithm_class,
@@ -280,7 +279,7 @@ def train_run(job: TrainJob) -> Record:
     if _finished(directory):
         print(f"{directory}: already finished; nothing to do", file=sys.stderr)
         return _summary(job, "finished")
-    with one_torch_thread(), _Interrupt() as interrupt:
+    with one_torch_thread(), FirstInterrupt("saving a checkpoint at the next step") as interrupt:
         training = _Training(job, interrupt)
         try:
             training.learn()
@@ -350,32 +349,6 @@ def _latest(directory: Path) -> dict[str, Any] | None:
     return latest
 
 
-class _Interrupt:
-    """While a run trains, the first SIGINT asks it to stop at the next env step and save a
-    checkpoint; the second raises KeyboardInterrupt at once. A no-op outside the main thread."""
-
-    def __init__(self) -> None:
-        self.seen = False
-        self._previous: Any = None
-
-    def __enter__(self) -> _Interrupt:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-        return self
-
-    def __exit__(self, *_: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-
-    def _handle(self, *_: object) -> None:
-        self.seen = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-        print(
-            "\ninterrupted: saving a checkpoint at the next step (Ctrl-C again to stop now)",
-            file=sys.stderr,
-        )
-
-
 def worker_env(env_id: str, in_worker: bool, **kwargs: Any) -> gym.Env:
     """An env of the run's vector env. In a SubprocVecEnv worker it ignores SIGINT: a Ctrl-C is
     the trainer's to handle (it saves a checkpoint), and a worker killed by it would break the
@@ -404,7 +377,7 @@ def _normalized(venv: Any, options: dict[str, Any] | None) -> Any:
 class _Training:
     """The state of one run while it trains: envs, model, evaluation env, progress."""
 
-    def __init__(self, job: TrainJob, interrupt: _Interrupt) -> None:
+    def __init__(self, job: TrainJob, interrupt: FirstInterrupt) -> None:
         self.job = job
         self.interrupt = interrupt
         self.dir = Path(job.out)
