@@ -463,6 +463,7 @@ class _Training:
         )
         if self.interrupt.seen:
             self.checkpoint()
+            self._write_run("interrupted")
             return
         if not self.rows or self.rows[-1]["timesteps"] != self.model.num_timesteps:
             self.evaluate()
@@ -557,7 +558,7 @@ class _Training:
             "settings": job.settings(),
             "config": job.hyperparams.source,
             "eval_seed": EVAL_SEED,
-            "timesteps": self.model.num_timesteps if status == "finished" else self.start,
+            "timesteps": self.start if status == "running" else self.model.num_timesteps,
             "versions": _versions(),
             "command": sys.argv,
         }

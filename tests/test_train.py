@@ -309,6 +309,8 @@ def _resume_and_check(argv: list[str], out: Path, steps: int) -> dict[str, Any]:
     assert code == 130 and "checkpoint saved" in err, err[-2000:]
     stopped = json.loads((out / "checkpoints" / "latest.json").read_text())["steps"]
     assert 0 < stopped < steps
+    interrupted = json.loads((out / "run.json").read_text())
+    assert interrupted["status"] == "interrupted" and interrupted["timesteps"] == stopped
     before = read_eval_csv(out / "eval.csv")
     assert before and all(r["timesteps"] <= stopped for r in before)
 
