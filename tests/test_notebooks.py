@@ -35,3 +35,6 @@ def test_notebook_runs_from_any_directory(
     namespace = run_notebook(notebook)
     if notebook.name == "quickstart.ipynb":
         assert namespace["info"]["is_success"]
+    if notebook.name == "learning.ipynb":
+        assert len(namespace["evaluation"]["summary"]) == 2  # the trained agent and PG
+        assert namespace["figure"].is_file()
