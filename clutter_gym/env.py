@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
@@ -92,7 +93,7 @@ class _ResetPlan(NamedTuple):
     hand: HandCommand
 
 
-class _RetrievalEnv(gym.Env[Observation, np.ndarray]):
+class _RetrievalEnv(gym.Env[Observation, np.ndarray], ABC):
     """What the variants share: keywords, scenes, reset options, the world, the task, info."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
@@ -156,17 +157,21 @@ class _RetrievalEnv(gym.Env[Observation, np.ndarray]):
     def _start_arm_default(self, scene: Scene) -> np.ndarray:
         return np.asarray(hm.RIGHT_ARM_START, dtype=np.float64)
 
+    @abstractmethod
     def _make_controller(self, arm: np.ndarray, hand: HandCommand) -> Controller:
-        raise NotImplementedError
+        """The controller that turns this variant's actions into motor targets."""
 
+    @abstractmethod
     def _observation_space(self) -> spaces.Dict:
-        raise NotImplementedError
+        """This variant's observation space."""
 
+    @abstractmethod
     def _observe(self, outcome: Outcome, tcp: Pose) -> Observation:
-        raise NotImplementedError
+        """This variant's observation of the current state."""
 
+    @abstractmethod
     def _reward(self, obs: Observation, outcome: Outcome, info: dict[str, Any]) -> float:
-        raise NotImplementedError
+        """This variant's reward for one step."""
 
     def _decided(self) -> bool:
         """Whether the episode is decided in the middle of an action (stop executing it)."""
