@@ -17,8 +17,9 @@ Action: ``MultiDiscrete([3, MAX_OBJECTS, 12, 5, 4, 2])`` =
   straight away from the robot; +-180 pulls toward it);
 - offset: `OFFSETS` m of lateral hand shift (push-grasp), or `SWEEP_FRACTIONS` along the hand;
 - distance: `PUSH_DISTANCES` m past a static grasp, or `SWEEP_DISTANCES` m swept;
-- the last: push-grasp aperture (0 the object's narrowest preshape, 1 its widest), or for a
-  sweep the side of the hand (0 its right, 1 its left).
+- the last: push-grasp aperture (0 one that fits the object at any orientation,
+  `planners.hand2d.default_aperture`; 1 the fingertips straight ahead, `STRAIGHT_APERTURE`), or
+  for a sweep the side of the hand (0 its right, 1 its left).
 
 Observation: ``Box((MAX_OBJECTS * 8 + 4,))``, per slot in the action's order: occupied, x, y
 (the goal's absolute, the others' relative to the goal), cos 2 theta, sin 2 theta, footprint
@@ -51,7 +52,7 @@ from planners.actions.heuristics import base_heading
 from planners.actions.primitives import PRIMITIVE_KINDS, Primitive, execute_primitive
 from planners.actions.results import Failure
 from planners.actions.settings import PlannerSettings
-from planners.capture import push_grasp_apertures
+from planners.hand2d import STRAIGHT_APERTURE, default_aperture
 from planners.uncertainty import ObjectBelief
 
 DIRECTIONS_DEG = tuple(range(-150, 181, 30))
@@ -228,8 +229,7 @@ def _primitive(belief: ObjectBelief, a: np.ndarray, arm: Arm) -> Primitive:
             SWEEP_DISTANCES[int(a[4])],
             handedness=1 if int(a[5]) == 0 else -1,
         )
-    apertures = sorted(push_grasp_apertures(belief.spec.footprint))
-    aperture = apertures[min(int(a[5]), len(apertures) - 1)]
+    aperture = (default_aperture(belief.spec.footprint), STRAIGHT_APERTURE)[int(a[5])]
     return Primitive(
         kind, belief.name, heading, OFFSETS[int(a[3])], PUSH_DISTANCES[int(a[4])], aperture
     )

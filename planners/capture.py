@@ -35,11 +35,13 @@ from planners.capture_build import (
     CaptureSettings,
     build_push_grasp,
     build_sweep,
+    cache_name,
     cached_arrays,
     parameter_sets,
 )
 from planners.hand2d import (
     MAX_APERTURE,
+    STRAIGHT_APERTURE,
     check_fits,
     check_footprint,
     default_aperture,
@@ -112,6 +114,14 @@ class CaptureRegion:
     mus: np.ndarray
     cs: np.ndarray
     step: float
+
+    @property
+    def lateral_reach(self) -> float:
+        """How far either side of the hand's axis (m) a pose can be and still be captured by
+        some push (at some orientation): the extreme lateral offsets of the search."""
+        ys = self.grid.y0 + self.grid.dy * np.arange(self.s_req.shape[0])
+        captured = np.isfinite(self.s_req).any(axis=1)
+        return float(np.abs(ys[captured]).max()) if captured.any() else 0.0
 
     def query(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(inside, push_distance) for object poses (N, 3) in the hand frame.
@@ -300,7 +310,7 @@ def push_grasp_region(
 
 def sweep_region(
     footprint: Footprint,
-    aperture: float = MAX_APERTURE,
+    aperture: float = STRAIGHT_APERTURE,
     settings: CaptureSettings | None = None,
     cache_dir: Path | None = None,
 ) -> SweepRegion:
@@ -331,26 +341,59 @@ def sweep_region(
     )
 
 
+APERTURE_MARGIN = 0.02
+"""m between the narrowest preshape and the object's narrowest width (a fingertip's width)."""
+V_APERTURES = (0.235, MAX_APERTURE)
+"""The V preshapes searched beyond the straight one (`planners.hand2d`): proximal angles of
+about 0.45 and 0.2 rad."""
+APERTURE_SPACING = 0.015
+"""m: apertures closer than this to a wider one in the list are dropped (one region each)."""
+APERTURE_GAP = 0.06
+"""m: the widest step between searched apertures; a wider one is split evenly."""
+
+
 def push_grasp_apertures(footprint: Footprint) -> tuple[float, ...]:
-    """The apertures the planner searches (§2.2.6): the object's width plus a margin, and for
-    cylinders also the widest (a region per aperture; box regions take a minute each, so boxes
-    use one)."""
-    default = default_aperture(footprint)
-    if footprint.shape == "circle" and MAX_APERTURE - default > 0.02:
-        return (default, MAX_APERTURE)
-    return (default,)
+    """The apertures the planner searches (§2.2.6: "between the maximum hand aperture and the
+    minimum hand aperture for the object"), narrowest first: the object's narrowest width plus
+    a fingertip, one that fits it at any orientation (`default_aperture`), the fingertips
+    straight ahead, and the V preshapes, with no step wider than `APERTURE_GAP`. Narrow hands
+    fit between neighbours in clutter; wide ones capture the spread of large uncertainty."""
+    wanted = sorted(
+        {
+            footprint.min_width + APERTURE_MARGIN,
+            default_aperture(footprint),
+            STRAIGHT_APERTURE,
+            *V_APERTURES,
+        }
+    )
+    kept: list[float] = []
+    for aperture in reversed(wanted):  # widest first, so the hand's own apertures stay exact
+        if kept:
+            parts = math.ceil((kept[-1] - aperture) / APERTURE_GAP - 1e-9)
+            kept += [round(float(x), 3) for x in np.linspace(kept[-1], aperture, parts + 1)[1:-1]]
+        if not kept or kept[-1] - aperture >= APERTURE_SPACING:
+            kept.append(aperture)
+    return tuple(reversed(kept))
 
 
 def precompute(directory: Path) -> list[Path]:
-    """Build the shipped regions into ``directory``: the default push-grasp of every graspable
-    object and the sweep of every object (the planner's action library uses exactly these)."""
+    """Build the shipped regions into ``directory``: the push-grasp of every graspable object
+    at every aperture the planner searches and the sweep of every object (the planner's
+    action library uses exactly these), and remove any other region file there."""
     from clutter_gym.model.objects import OBJECTS
 
+    settings = CaptureSettings()
+    wanted = set()
     for spec in tqdm(OBJECTS.values(), desc="capture regions", unit="object"):
         if spec.graspable:
             for aperture in push_grasp_apertures(spec.footprint):
                 push_grasp_region(spec.footprint, aperture, cache_dir=directory)
+                wanted.add(cache_name("push_grasp", spec.footprint, aperture, settings))
         sweep_region(spec.footprint, cache_dir=directory)
+        wanted.add(cache_name("sweep", spec.footprint, STRAIGHT_APERTURE, settings))
+    for stale in directory.glob("*.npz"):
+        if stale.name not in wanted:
+            stale.unlink()
     return sorted(directory.glob("*.npz"))
 
 

@@ -18,10 +18,14 @@ axis, and z, forward along the approach axis from ``hand_base``):
   q + q_d + HAND_DISTAL_BEND (q_d = q * HAND_DISTAL_COUPLING, as `clutter_gym.sim.robot`
   drives it), all 2 * D3 thick, and a cylindrical fingertip of radius D3 at the distal end.
 * Aperture a: the distance between the inner surfaces of the two fingertips,
-  a = 2 (u_tip(q) - D3). It is used for proximal angles from the one at which the distal
-  link points straight forward (the widest aperture at which the fingertips are still the
-  innermost part of the fingers, `MAX_APERTURE`, about 0.19 m) to the closed tips (a = 0).
-  The env commands it as the hand closure ``closure_for_aperture(a)`` = q / proximal range.
+  a = 2 (u_tip(q) - D3), monotone in the proximal angle q. From the closed tips (a = 0) up to
+  `STRAIGHT_APERTURE` (about 0.19 m) the distal links lean inward and the fingertips are the
+  innermost part of the fingers; opening further gives the BH-280's V preshapes, the distal
+  links splayed outward like a funnel, up to `MAX_APERTURE` (about 0.27 m at the proximal angle
+  `PROXIMAL_V_LIMIT`). The paper searches "between the maximum hand aperture and the minimum
+  hand aperture for the object" (§2.2.6); the V preshapes are what makes the hand wide enough
+  for the sigma4 uncertainty. The env commands an aperture as the hand closure
+  ``closure_for_aperture(a)`` = q / proximal range.
 
 2D frames: the push-grasp frame has x along the approach (push) direction, origin on the hand
 axis at ``hand_base``, y to the left seen from above, angles counter-clockwise; the profile
@@ -83,12 +87,18 @@ def aperture_for_proximal(proximal: float) -> float:
     return 2.0 * (finger_pose(proximal).tip[0] - _D3)
 
 
-PROXIMAL_WIDEST = (math.pi / 2 - hm.HAND_DISTAL_BEND) / (1.0 + hm.HAND_DISTAL_COUPLING)
-"""Proximal angle at which the distal links point straight forward (the widest usable aperture:
-opening further splays the tips outward and the narrowest gap moves back to the joints)."""
-PROXIMAL_CLOSED = float(brentq(aperture_for_proximal, PROXIMAL_WIDEST, hm.HAND_PROXIMAL_RANGE[1]))
+PROXIMAL_STRAIGHT = (math.pi / 2 - hm.HAND_DISTAL_BEND) / (1.0 + hm.HAND_DISTAL_COUPLING)
+"""Proximal angle at which the distal links point straight forward: the sweep's preshape (a flat
+outer side) and the widest aperture at which the fingertips are the fingers' innermost part."""
+PROXIMAL_V_LIMIT = 0.2
+"""The most open V preshape the planner uses (rad). Opening further brings the fingertips back
+toward the palm (4.5 cm ahead of its face at 0.2 rad, 2.2 cm at 0): a pushed bottle or can
+then comes to rest against the palm with its centre in front of the fingertips, where closing
+the hand pushes it away instead of wrapping it."""
+PROXIMAL_CLOSED = float(brentq(aperture_for_proximal, PROXIMAL_STRAIGHT, hm.HAND_PROXIMAL_RANGE[1]))
 """Proximal angle at which the fingertips touch (a = 0)."""
-MAX_APERTURE = aperture_for_proximal(PROXIMAL_WIDEST)
+STRAIGHT_APERTURE = aperture_for_proximal(PROXIMAL_STRAIGHT)
+MAX_APERTURE = aperture_for_proximal(PROXIMAL_V_LIMIT)
 
 
 def proximal_for_aperture(aperture: float) -> float:
@@ -98,12 +108,16 @@ def proximal_for_aperture(aperture: float) -> float:
             f"aperture {aperture!r} m outside the hand's range (0, {MAX_APERTURE:.4f}]"
         )
     if aperture >= MAX_APERTURE:
-        return PROXIMAL_WIDEST
+        return PROXIMAL_V_LIMIT
+    if aperture == STRAIGHT_APERTURE:
+        return PROXIMAL_STRAIGHT
+    # Bracketed on the V side or the curled side of the straight preshape.
+    v_shaped = aperture > STRAIGHT_APERTURE
     return float(
         brentq(
             lambda q: aperture_for_proximal(q) - aperture,
-            PROXIMAL_WIDEST,
-            PROXIMAL_CLOSED,
+            PROXIMAL_V_LIMIT if v_shaped else PROXIMAL_STRAIGHT,
+            PROXIMAL_STRAIGHT if v_shaped else PROXIMAL_CLOSED,
             xtol=1e-12,
         )
     )
@@ -115,9 +129,9 @@ def closure_for_aperture(aperture: float) -> float:
 
 
 def default_aperture(footprint: Footprint) -> float:
-    """An aperture that fits the object at any orientation with 2 cm either side, capped at the
-    hand's maximum: the push-grasp preshape used by the validation and the benchmarks."""
-    return min(MAX_APERTURE, 2.0 * footprint.bounding_radius + 0.04)
+    """An aperture that fits the object at any orientation with 2 cm either side, capped where
+    the fingertips point straight ahead: the validation's default push-grasp preshape."""
+    return min(STRAIGHT_APERTURE, 2.0 * footprint.bounding_radius + 0.04)
 
 
 def check_footprint(footprint: Footprint) -> None:
@@ -216,7 +230,7 @@ class SweepProfile:
 
 
 @functools.cache
-def sweep_profile(aperture: float = MAX_APERTURE) -> SweepProfile:
+def sweep_profile(aperture: float = STRAIGHT_APERTURE) -> SweepProfile:
     q = proximal_for_aperture(aperture)
     polygons, circles = _hand_shapes(q)
     polygons.append(_box(WRIST_END, 0.0, -hm.HAND_PALM_RADIUS, hm.HAND_PALM_RADIUS))

@@ -15,6 +15,8 @@ from planners.capture import CaptureRegion, push_grasp_apertures, push_grasp_reg
 from planners.capture_build import SHIPPED_DIR, CaptureSettings, cache_name
 from planners.hand2d import (
     MAX_APERTURE,
+    PROXIMAL_STRAIGHT,
+    STRAIGHT_APERTURE,
     aperture_for_proximal,
     closure_for_aperture,
     default_aperture,
@@ -114,11 +116,37 @@ def test_sweep_region(tmp_path: Path) -> None:
 
 
 def test_aperture_and_closure() -> None:
-    assert 0.18 < MAX_APERTURE < 0.2
-    q = proximal_for_aperture(0.1)
-    assert aperture_for_proximal(q) == pytest.approx(0.1)
-    assert 0 < closure_for_aperture(0.1) < 1
-    assert closure_for_aperture(0.05) > closure_for_aperture(0.1)  # narrower = more closed
+    assert 0.18 < STRAIGHT_APERTURE < 0.2 < 0.26 < MAX_APERTURE < 0.3
+    for aperture in (0.1, STRAIGHT_APERTURE, 0.25, MAX_APERTURE):
+        q = proximal_for_aperture(aperture)
+        assert aperture_for_proximal(q) == pytest.approx(aperture)
+        assert 0 < closure_for_aperture(aperture) < 1
+    assert proximal_for_aperture(0.25) < PROXIMAL_STRAIGHT  # a V preshape: less curled
+    assert closure_for_aperture(0.05) > closure_for_aperture(0.1) > closure_for_aperture(0.25)
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "juice_bottle", "poptart_box"])
+def test_apertures_span_the_object_to_the_widest_v(kind: str) -> None:
+    """§2.2.6: "a changes between the maximum hand aperture and the minimum hand aperture for
+    the object": narrowest first, from the object's width plus a fingertip to the widest V."""
+    footprint = OBJECTS[kind].footprint
+    apertures = push_grasp_apertures(footprint)
+    assert list(apertures) == sorted(apertures)
+    assert apertures[0] == pytest.approx(footprint.min_width + 0.02)
+    assert apertures[-1] == MAX_APERTURE and STRAIGHT_APERTURE in apertures
+    assert max(np.diff(apertures)) <= 0.06 and min(np.diff(apertures)) >= 0.015
+
+
+def test_v_preshapes_capture_wider_spreads(tmp_path: Path) -> None:
+    """The V preshape captures the can farther off the hand's axis than the straight one (the
+    sigma4 spread), and its region still ends between the fingertips."""
+    straight = push_grasp_region(CAN, STRAIGHT_APERTURE, cache_dir=tmp_path)
+    widest = push_grasp_region(CAN, MAX_APERTURE, cache_dir=tmp_path)
+    assert widest.lateral_reach > straight.lateral_reach + 0.03
+    assert widest.lateral_reach < MAX_APERTURE / 2 + CAN.radius
+    ahead = widest.grasp_line + 0.3
+    off_axis = np.array([[ahead, straight.lateral_reach + 0.02, 0.0]])
+    assert widest.query(off_axis)[0].all() and not straight.query(off_axis)[0].any()
 
 
 @pytest.mark.parametrize(
@@ -127,9 +155,9 @@ def test_aperture_and_closure() -> None:
         (Footprint("circle", radius=0.0), 0.1, "positive"),
         (Footprint("circle", radius=-0.01), 0.1, "positive"),
         (Footprint("box", half_extents=(0.1, float("nan"))), 0.1, "positive"),
-        (Footprint("circle", radius=0.12), 0.15, "maximum aperture"),
+        (Footprint("circle", radius=0.14), 0.15, "maximum aperture"),
         (CAN, 0.05, "aperture"),
-        (CAN, 0.3, "aperture"),
+        (CAN, 0.3, "aperture"),  # wider than the widest V preshape
         (CAN, float("nan"), "aperture"),
     ],
 )
@@ -156,7 +184,7 @@ def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path
     settings = CaptureSettings()
     for spec in OBJECTS.values():
         footprint = spec.footprint
-        wanted = [("sweep", MAX_APERTURE)]
+        wanted = [("sweep", STRAIGHT_APERTURE)]
         if spec.graspable:
             wanted += [("push_grasp", a) for a in push_grasp_apertures(footprint)]
         for kind, aperture in wanted:

@@ -24,8 +24,6 @@ from planners.push_simulation import Pusher, contacts
 
 OVERLAP = 2e-3
 """m of planar overlap that counts: the 3D check pads nothing for objects, so 2 mm is real."""
-HAND_BLOCKED = "the hand "
-"""How the reasons of `line_overlap` begin: a hand placed elsewhere sideways may clear it."""
 SWEEP_STEP = 0.02
 """m between the hand poses tested along a straight push (finger and palm are wider)."""
 

@@ -54,12 +54,23 @@ def push_headings(
     """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in and by
     the object and fingers on their way on, then closest to the shoulder-object line. Hitting
     an object of avoidVol (which no candidate may penetrate) counts before any other hit."""
-    centre = ctx.beliefs[name].samples[0, :2]
+    belief = ctx.beliefs[name]
+    centre = belief.samples[0, :2]
     base = base_heading(shoulder, centre)
-    radius = ctx.beliefs[name].spec.footprint.bounding_radius
+    footprint = belief.spec.footprint
+    radius = footprint.bounding_radius
     fixed = avoid.labels
+    candidates = headings(ctx, base, ctx.settings.heading_step_deg)
+    if footprint.shape == "box":
+        # Square to the detected box's faces too: a narrow hand fits a box only along them.
+        limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
+        for k in range(4):
+            off = math.remainder(belief.detected[2] + k * math.pi / 2 - base, 2 * math.pi)
+            if abs(off) <= limit and all(abs(math.remainder(base + off - h, 2 * math.pi)) > 1e-6
+                                         for h in candidates):  # fmt: skip
+                candidates.append(base + off)
     scored = []
-    for h in headings(ctx, base, ctx.settings.heading_step_deg):
+    for h in candidates:
         v = np.array([math.cos(h), math.sin(h)])
         hits = corridor_hits(ctx, name, centre - (radius + 0.30) * v, centre, 2 * reach)
         # Where the object and the fingers go: pushing it into others is as bad.

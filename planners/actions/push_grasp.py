@@ -16,9 +16,9 @@ from collections.abc import Generator, Iterator
 import numpy as np
 
 from clutter_gym.model.collision import Volume
+from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.arm import Arm
-from planners.actions.clearance import HAND_BLOCKED
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
@@ -28,9 +28,10 @@ from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.actions.static_grasp import static_grasp
 from planners.capture import extreme_parameters, push_grasp_apertures
-from planners.hand2d import push_grasp_profile
+from planners.hand2d import default_aperture, push_grasp_profile
 
 PUSH_MARGIN = 0.01  # m pushed beyond the capture region's requirement
+OFFSET_STEP = 0.01  # m between the lateral offsets tried (the paper's "user defined step")
 NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
 MISSES_SAMPLES = "the capture region misses some uncertainty samples"
 
@@ -51,9 +52,7 @@ def push_grasp(
     budget = ctx.settings.candidates_per_action
     if action == "pickup":
         budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
-    # The goal is grasped from the widest preshape first: closing from a narrow one pops a
-    # tall bottle up out of the hand in simulation (the Table 1 suite at sigma1).
-    apertures = sorted(push_grasp_apertures(spec.footprint), reverse=action == "pickup")
+    apertures = aperture_order(spec.footprint)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
     for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach, avoid):
         if budget <= 0:
@@ -67,6 +66,31 @@ def push_grasp(
             budget -= found
             if found:
                 break  # the next candidate pushes from another direction
+
+
+def aperture_order(footprint: Footprint) -> list[float]:
+    """The push-grasp apertures in the order they are tried (§2.2.6 searches them all): the
+    one that fits the object at any orientation first (the validated everyday preshape), then
+    wider ones up to the V preshapes (wide uncertainty), then narrower ones (clutter)."""
+    usual = default_aperture(footprint)
+    return sorted(push_grasp_apertures(footprint), key=lambda a: (a < usual - 1e-3, abs(a - usual)))
+
+
+def lateral_offsets(
+    samples: np.ndarray, heading: float, half_width: float, step: float
+) -> np.ndarray:
+    """Lateral hand offsets (m, to the hand's left of the detection) that can capture every
+    sample: from the middle of the samples' spread across the push out to the two extremes at
+    which the capture region, ``half_width`` either side of the hand's axis, still spans them
+    (§2.2.6: "o is changed between the two extreme positions"), middle first, ``step`` apart."""
+    normal = np.array([-math.sin(heading), math.cos(heading)])
+    lateral = (samples[:, :2] - samples[0, :2]) @ normal
+    low, high = float(lateral.max()) - half_width, float(lateral.min()) + half_width
+    if low > high:
+        return np.empty(0)
+    middle = 0.5 * (low + high)
+    k = np.arange(int((high - low) / (2 * step) + 1e-9) + 1)
+    return middle + step * np.column_stack([k, -k]).ravel()[1:]
 
 
 def _counted(outcomes: Iterator[Outcome], limit: int) -> Generator[Outcome, None, int]:
@@ -106,19 +130,22 @@ def _over_offsets(
     heading: float,
     aperture: float,
 ) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
-    """The push at this heading and aperture, trying the lateral offsets while the capture
-    region misses samples or the hand overlaps a neighbour (an offset shifts the hand by a
-    centimetre or two: it helps the capture, or clears a neighbour beside the fingers); the
-    failures on the way are yielded."""
-    for offset in ctx.settings.offsets:
+    """The push at this heading and aperture at the first lateral offset (`lateral_offsets`)
+    that passes every check; the failures on the way are yielded. A failure at one offset does
+    not end the search: a hand shifted by a centimetre may clear a neighbour or find IK."""
+    belief = ctx.beliefs[name]
+    region = ctx.push_region(belief.spec.footprint, aperture)
+    offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
+    if not len(offsets):
+        yield Failure(name, action, MISSES_SAMPLES)
+        return None
+    for offset in offsets:
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        outcome = _push_at(ctx, arm, name, avoid, action, heading, aperture, offset)
+        outcome = _push_at(ctx, arm, name, avoid, action, heading, aperture, float(offset))
         if not isinstance(outcome, Failure):
             return outcome
         yield outcome
-        if outcome.reason != MISSES_SAMPLES and not outcome.reason.startswith(HAND_BLOCKED):
-            return None
     return None
 
 

@@ -23,7 +23,6 @@ class PlannerSettings:
     # Push and grasp directions within this of the shoulder-object line: 180 is the paper's
     # v in [0, 2 pi) (§2.2.6); the reachability map prunes the ones the arm cannot reach.
     max_heading_deg: float = 180.0
-    offsets: tuple[float, ...] = (0.0, 0.01, -0.01, 0.02, -0.02, 0.03, -0.03, 0.04, -0.04)
     sweep_max: float = 0.55  # m
     sweep_step_deg: float = 30.0
     # Sweep approaches within this of the shoulder-object line: all around, so the hand may
