@@ -4,8 +4,9 @@ passed to the actions beside this."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Hashable, Iterable
 from functools import cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +17,9 @@ from planners.actions.results import FailureLog
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, sweep_region
 from planners.uncertainty import ObjectBelief
+
+if TYPE_CHECKING:
+    from planners.actions.sweep import SweepEvolution
 
 STABLE_MARGIN = 0.01  # m: in the shelf, the footprint stays this far inside the walls
 TABLE_EDGE_MARGIN = 0.05  # m: on the table, the centre of mass stays this far from the edge
@@ -53,6 +57,8 @@ class PlanningContext:
         self.failures = FailureLog()
         self._volumes: dict[str, Volume] = {}
         self._sums: dict[frozenset[str], Volume] = {}
+        #: Sweep evolutions simulated so far, by object and sweep frame (`SweepEvolution`).
+        self.sweeps: dict[tuple[Hashable, ...], SweepEvolution] = {}
 
     def check_budget(self) -> None:
         self.budget.check()

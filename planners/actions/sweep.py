@@ -338,6 +338,31 @@ def _reached(
     return bool(inside) and goal.accepts(ctx, name, final, False)
 
 
+@dataclass
+class SweepEvolution:
+    """A sweep's simulated nu_o so far, chunk by chunk. The evolution depends on the object's
+    samples, the sweep's frame and the pushing parameters, not on the goal G (only where it
+    stops does), so every parent candidate of a plan that asks for the same sweep reuses it
+    (`PlanningContext.sweeps`) and only runs its own stop test."""
+
+    chunks: list[tuple[np.ndarray, np.ndarray]]  # (distances (k + 1,), world (k + 1, P, N, 3))
+    current: np.ndarray  # hand-frame poses where the last chunk ends
+    advanced: float  # m simulated
+
+    def chunk(self, i: int, region: SweepRegion, frame: Frame2D, step: float, limit: float,
+              chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """Chunk ``i`` of the sweep, simulated only the first time anyone asks for it."""
+        while len(self.chunks) <= i:
+            d = min(SWEEP_CHUNK, limit - self.advanced)
+            k = max(1, math.ceil(d / NU_SPACING))
+            nu_hand = region.evolve(self.current, d, k, step, chosen)
+            distances = self.advanced + np.linspace(0.0, d, k + 1)
+            self.chunks.append((distances, frame.moving_to_world(nu_hand, distances)))
+            self.current = nu_hand[-1]
+            self.advanced += d
+        return self.chunks[i]
+
+
 def _sweep_until(
     ctx: PlanningContext,
     name: str,
@@ -352,20 +377,24 @@ def _sweep_until(
     """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
 
     The evolution is simulated a chunk at a time and stops as soon as G is reached: sweeping a
-    box under every (mu_c, c) is the planner's most expensive computation. G is tested from
+    box under every (mu_c, c) is the planner's most expensive computation, so the chunks are
+    kept (`SweepEvolution`) for the next goal that asks for the same sweep. G is tested from
     ``check_from`` on (a pilot run tells roughly where it is reached)."""
     chosen = extreme_parameters(region.mus, region.cs)
-    current: np.ndarray = in_frame
+    key = (name, frame.origin, frame.angle, frame.handedness, step, len(in_frame))
+    evolution = ctx.sweeps.get(key)
+    if evolution is None:
+        evolution = ctx.sweeps[key] = SweepEvolution([], in_frame, 0.0)
     stages = [frame.moving_to_world(np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
-    advanced = 0.0
-    while advanced < limit - 1e-9:
+    i = 0
+    while i < len(evolution.chunks) or evolution.advanced < limit - 1e-9:
         ctx.check_budget()
-        d = min(SWEEP_CHUNK, limit - advanced)
-        k = max(1, math.ceil(d / NU_SPACING))
-        nu_hand = region.evolve(current, d, k, step, chosen)
-        distances = advanced + np.linspace(0.0, d, k + 1)
-        world = frame.moving_to_world(nu_hand, distances)
-
+        distances, world = evolution.chunk(i, region, frame, step, limit, chosen)
+        i += 1
+        # A chunk kept from a longer sweep may run past this one's limit.
+        k = int(np.searchsorted(distances, limit + 1e-9)) - 1
+        if k < 1:
+            break
         if distances[k] >= check_from and _reached(
             ctx, name, goal, region, in_frame, float(distances[k]), world[k]
         ):
@@ -376,7 +405,7 @@ def _sweep_until(
                 or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
             )
             return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
+        if k < len(distances) - 1:
+            break
         stages.append(world[1:])
-        current = nu_hand[-1]
-        advanced += d
     return None

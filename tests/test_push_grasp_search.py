@@ -1,0 +1,100 @@
+"""The push-grasp parameter search (§2.2.6) and the reuse of sweep simulations across goals."""
+
+from __future__ import annotations
+
+import importlib
+import math
+
+import numpy as np
+import pytest
+
+from clutter_gym.model.collision import Volume
+from clutter_gym.model.objects import OBJECTS, get_object
+from clutter_gym.model.world import TABLE
+from planners.actions.context import PlanningContext
+from planners.actions.goals import AwayFrom
+from planners.actions.push_grasp import aperture_order, lateral_offsets
+from planners.actions.settings import PlannerSettings
+from planners.capture import push_grasp_apertures
+from planners.hand2d import default_aperture
+from planners.uncertainty import ObjectBelief, sample_poses
+
+# The module, not the `sweep` action the package re-exports under the same name.
+sweep_action = importlib.import_module("planners.actions.sweep")
+
+
+def test_offsets_run_from_the_middle_of_the_spread_to_both_extremes() -> None:
+    """One sample: every offset within the region's reach, centre first, a step apart."""
+    offsets = lateral_offsets(np.array([[0.8, -0.2, 0.0]]), 0.3, 0.05, 0.01)
+    assert offsets[0] == 0.0
+    assert sorted(offsets) == pytest.approx(np.arange(-0.05, 0.051, 0.01))
+    assert np.all(np.diff(np.abs(offsets)) >= -1e-12)  # never farther out before nearer
+
+
+def test_offsets_are_centred_on_the_samples_and_keep_them_all_within_reach() -> None:
+    heading = math.radians(30.0)
+    normal = np.array([-math.sin(heading), math.cos(heading)])
+    samples = np.array([[0.8, -0.2, 0.0], [0.8, -0.2, 0.0], [0.8, -0.2, 0.0]])
+    samples[1, :2] += 0.06 * normal  # the spread runs from 0 to +0.08 across the push
+    samples[2, :2] += 0.08 * normal
+    offsets = lateral_offsets(samples, heading, 0.10, 0.01)
+    assert offsets[0] == pytest.approx(0.04)
+    lateral = (samples[:, :2] - samples[0, :2]) @ normal
+    for o in offsets:  # the hand's axis at o: every sample within the region's reach of it
+        assert np.all(np.abs(lateral - o) <= 0.10 + 1e-9)
+    assert min(offsets) == pytest.approx(-0.02) and max(offsets) == pytest.approx(0.10)
+    assert len(lateral_offsets(samples, heading, 0.039, 0.01)) == 0  # wider than the region
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "juice_bottle", "poptart_box"])
+def test_every_aperture_is_tried_the_usual_one_first(kind: str) -> None:
+    footprint = OBJECTS[kind].footprint
+    order = aperture_order(footprint)
+    assert sorted(order) == sorted(push_grasp_apertures(footprint))
+    usual = default_aperture(footprint)
+    assert abs(order[0] - usual) == min(abs(a - usual) for a in order)
+    wider = [a for a in order if a >= order[0]]
+    assert order[: len(wider)] == sorted(wider)  # then wider, then narrower
+
+
+def _box_context() -> PlanningContext:
+    rng = np.random.default_rng(0)
+    pose = (0.75, -0.20, 0.3)
+    box = ObjectBelief(
+        "box", get_object("large_box"), pose, sample_poses(pose, (0.005, 0.034), 30, rng)
+    )
+    settings = PlannerSettings(time_budget=600.0)  # far above the test's needs
+    return PlanningContext(TABLE, {"box": box}, settings, TABLE.default_goal_region, rng)
+
+
+def test_a_sweep_is_simulated_once_for_every_goal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The evolution of a sweep does not depend on G: a second goal asking for the same sweep
+    reuses the simulation (only its stop test runs) and gets what a fresh simulation gives."""
+    ctx = _box_context()
+    plan = sweep_action._plan_sweep(ctx, "box", math.pi / 2, -1)
+    frame, in_frame = sweep_action._frame_at(ctx, "box", plan, 0.5)
+    centre = np.array([0.75, -0.20, TABLE.top_z + 0.1])
+    near = Volume.of_box("ngr", centre, (0.2, 0.2, 0.2), 0.0)
+    far = Volume.of_box("ngr", centre, (0.3, 0.3, 0.2), 0.0)
+
+    def sweep_out(context: PlanningContext, ngr: Volume) -> tuple[float, np.ndarray] | None:
+        return sweep_action._sweep_until(
+            context, "box", AwayFrom(ngr), plan.region, frame, in_frame, 0.55
+        )
+
+    first = sweep_out(ctx, near)
+    assert first is not None
+    calls = []
+    evolve = type(plan.region).evolve
+    monkeypatch.setattr(
+        type(plan.region), "evolve", lambda *a, **k: calls.append(1) or evolve(*a, **k)
+    )
+    again = sweep_out(ctx, near)
+    assert again is not None and calls == []
+    assert again[0] == first[0] and np.array_equal(again[1], first[1])
+    farther = sweep_out(ctx, far)
+    fresh = sweep_out(_box_context(), far)
+    assert farther is not None and fresh is not None
+    assert farther[0] > first[0] and farther[0] == fresh[0]
+    assert np.allclose(farther[1], fresh[1])
+    assert len(ctx.sweeps) == 1
