@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.model import herb as hm
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.reachability import grasp_height, tcp_pose
@@ -60,7 +59,7 @@ def plan_direct_grasp(
         heading = base_heading + offset
         direction = np.array([np.cos(heading), np.sin(heading), 0.0])
         try:
-            grasp = _grasp_along(kinematics, centre, direction, request.surface_z, rng, accept)
+            grasp = _grasp_along(kinematics, centre, direction, request.surface_z, accept)
         except PlanningError as error:
             failures.append(str(error))
             continue
@@ -77,7 +76,6 @@ def _grasp_along(
     centre: np.ndarray,
     direction: np.ndarray,
     surface_z: float,
-    rng: np.random.Generator,
     accept: Callable[[np.ndarray], bool] | None,
 ) -> Trajectory:
     def pose(position: np.ndarray) -> np.ndarray:
@@ -89,7 +87,7 @@ def _grasp_along(
 
     # Plan backwards from the grasp so every segment stays on one IK branch (the 7-DoF arm has
     # many; independent IK calls for hover and grasp can land on disconnected ones).
-    q_grasp = kinematics.solve_ik(pose(centre), hm.RIGHT_ARM_HOME, rng, accept=clear)
+    q_grasp = kinematics.solve_ik(pose(centre), accept=clear)
     if q_grasp is None:
         raise PlanningError(f"no IK solution grasping the object at {np.round(centre, 3).tolist()}")
     pregrasp = centre - PREGRASP_DISTANCE * direction

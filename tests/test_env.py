@@ -281,7 +281,7 @@ def test_arm_striking_the_table_terminates_with_failure() -> None:
     below_top = np.eye(4)
     below_top[:3, :3] = approach_rotation(np.array([1.0, 0.0, 0.0]))
     below_top[:3, 3] = (0.95, 0.15, 0.70)  # 3.5 cm under the table top, clear of the objects
-    q = env.kinematics.solve_ik(below_top, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    q = env.kinematics.solve_ik(below_top)
     assert q is not None
     action = np.tile(np.r_[q, 0.0, 0.0], (env.action_space.shape[0], 1)).astype(np.float32)
     _, reward, terminated, _, info = env.step(action)

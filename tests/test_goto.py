@@ -164,13 +164,12 @@ def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
     """GoTo on the upright-hand manifold (ProjectedStateSpace) around an obstacle that the
     straight segment would cross: every configuration keeps the finger plane horizontal."""
     kinematics = ArmKinematics("right")
-    rng = np.random.default_rng(0)
 
     def at(x: float, y: float, z: float, heading: float) -> np.ndarray:
         target = np.eye(4)
         target[:3, :3] = approach_rotation(np.array([np.cos(heading), np.sin(heading), 0.0]))
         target[:3, 3] = (x, y, z)
-        q = kinematics.solve_ik(target, hm.RIGHT_ARM_HOME, rng)
+        q = kinematics.solve_ik(target)
         assert q is not None
         return q
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,7 +12,16 @@ import pytest
 from pybullet_utils.bullet_client import BulletClient
 
 from clutter_gym.model import herb as hm
-from clutter_gym.model.kinematics import ArmKinematics, rotation_exp, rotation_log
+from clutter_gym.model.collision import make_checker
+from clutter_gym.model.kinematics import (
+    CHECK_SPACING,
+    MAX_CHECKS,
+    ArmKinematics,
+    rotation_exp,
+    rotation_log,
+)
+from clutter_gym.model.reachability import HEIGHTS, PROBE_HAND, hand_pose
+from clutter_gym.model.world import TABLE
 
 FRAME_LINKS = ["wam_base", *(f"wam{i}" for i in range(1, 8)), "hand_base"]
 
@@ -102,27 +112,83 @@ def test_jacobian_matches_finite_differences(right: ArmKinematics) -> None:
         np.testing.assert_allclose(right.jacobian(q), numeric, atol=1e-7)
 
 
-def test_ik_solves_random_reachable_targets_within_limits(right: ArmKinematics) -> None:
+def pose_errors(kin: ArmKinematics, qs: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(N, 2): position error [m] and rotation angle error [rad] of each row's TCP (the angle
+    from the Frobenius distance, 2 sqrt(2) sin(angle / 2), exact to rounding when small)."""
+    poses = kin.fk_tcp_batch(qs)
+    position = np.linalg.norm(poses[:, :3, 3] - target[:3, 3], axis=1)
+    chord = np.linalg.norm(poses[:, :3, :3] - target[:3, :3], axis=(1, 2)) / (2.0 * np.sqrt(2.0))
+    return np.column_stack([position, 2.0 * np.arcsin(np.minimum(chord, 1.0))])
+
+
+@pytest.mark.parametrize(("side", "samples"), [("right", 1000), ("left", 250)])
+def test_ik_solutions_recover_random_poses(side: str, samples: int) -> None:
+    """FK round trip: the pose of a random in-limit q is reached exactly by some solution,
+    every solution is in the limits and reaches it, q itself is the nearest solution to the
+    seed q (its j3 is swept), and the j3 grid alone comes near q (a weaker check: near the
+    wrist and shoulder singularities the other joints move fast with j3)."""
+    kin = ArmKinematics(side)
     rng = np.random.default_rng(7)
-    for q in rng.uniform(right.lower, right.upper, size=(200, 7)):
-        target = right.fk_tcp(q)
-        sol = right.solve_ik(target, None, rng)
-        assert sol is not None
-        assert np.all(sol >= right.lower) and np.all(sol <= right.upper)
-        assert_pose_close(right.fk_tcp(sol), target, 1e-4, 1e-3)
+    pose_hits = q_hits = near_hits = 0
+    far: list[str] = []
+    for q in rng.uniform(kin.lower, kin.upper, size=(samples, 7)):
+        target = kin.fk_tcp(q)
+        sols = kin.ik_solutions(target, seed=q)
+        assert np.all((sols >= kin.lower) & (sols <= kin.upper))
+        errors = pose_errors(kin, sols, target)
+        assert np.all(errors < 1e-6)
+        pose_hits += bool(np.any(np.all(errors < 1e-9, axis=1)))
+        q_hits += len(sols) > 0 and np.max(np.abs(sols[0] - q)) < 1e-6
+        grid = sols[sols[:, 2] != q[2]]
+        distance = float(np.min(np.max(np.abs(grid - q), axis=1))) if len(grid) else np.inf
+        near_hits += distance < 0.2
+        if distance >= 0.2:
+            far.append(f"j2 {q[1]:+.2f} j6 {q[5]:+.3f}: {distance:.2f} rad")
+    print(f"{side}: pose {pose_hits}/{samples}, q {q_hits}/{samples}, grid within 0.2 rad "
+          f"{near_hits}/{samples}; far: {far}")  # fmt: skip
+    assert pose_hits >= 0.99 * samples and q_hits >= 0.99 * samples
+    assert near_hits >= 0.98 * samples
 
 
-def test_ik_from_nearby_seed_stays_near_it(right: ArmKinematics) -> None:
+def test_ik_solutions_at_singularities() -> None:
+    """The wrist (j6 = 0: only j5 + j7 is determined), the shoulder (j2 = 0) and the stretched
+    elbow (a double root of j4) are solved like any other pose."""
+    kin = ArmKinematics("right")
+    a3, a4, d3, d5 = 0.045, -0.045, 0.55, 0.3
+    stretched = np.arctan2(a3 * d5 - d3 * a4, a3 * a4 + d3 * d5)  # largest shoulder-wrist span
+    rng = np.random.default_rng(13)
+    for joint, value in ((5, 0.0), (1, 0.0), (3, stretched)):
+        for q in rng.uniform(kin.lower, kin.upper, size=(50, 7)):
+            q[joint] = value
+            target = kin.fk_tcp(q)
+            sols = kin.ik_solutions(target, seed=q)
+            assert len(sols) and np.all(pose_errors(kin, sols, target) < 1e-6)
+            if joint != 3:  # a double root keeps only ~8 digits
+                np.testing.assert_allclose(sols[0], q, atol=1e-9)
+
+
+def test_ik_solutions_reach_the_pose_in_pybullet(bullet: tuple[BulletClient, int]) -> None:
+    kin = ArmKinematics("right")
+    rng = np.random.default_rng(14)
+    for q in rng.uniform(kin.lower, kin.upper, size=(10, 7)):
+        target = kin.fk_tcp(q)
+        sols = kin.ik_solutions(target)
+        for sol in sols[:: max(1, len(sols) // 4)]:
+            assert_pose_close(pybullet_frames(*bullet, "right", sol)[-1], target, 1e-6, 1e-6)
+
+
+def test_solve_ik_returns_the_solution_nearest_the_seed(right: ArmKinematics) -> None:
     rng = np.random.default_rng(8)
-    for q in rng.uniform(right.lower + 0.2, right.upper - 0.2, size=(30, 7)):
-        sol = right.solve_ik(right.fk_tcp(q), q + rng.normal(0.0, 0.05, 7), rng)
-        assert sol is not None and np.max(np.abs(sol - q)) < 0.3
-        local = right.solve_ik(right.fk_tcp(q), q + rng.normal(0.0, 0.05, 7), rng, max_restarts=0)
-        assert local is not None and np.max(np.abs(local - q)) < 0.3
+    for q in rng.uniform(right.lower, right.upper, size=(30, 7)):
+        target = right.fk_tcp(q)
+        np.testing.assert_allclose(right.solve_ik(target, q), q, atol=1e-9)
+        sols = right.ik_solutions(target)
+        np.testing.assert_array_equal(right.solve_ik(target), sols[0])
+        distances = np.linalg.norm(sols - right.home, axis=1)
+        assert np.all(np.diff(distances) >= 0)
 
 
 def test_ik_respects_accept(right: ArmKinematics) -> None:
-    rng = np.random.default_rng(9)
     target = right.fk_tcp(hm.RIGHT_ARM_HOME)
     verdicts: list[bool] = []
 
@@ -130,23 +196,51 @@ def test_ik_respects_accept(right: ArmKinematics) -> None:
         verdicts.append(bool(q[0] > hm.RIGHT_ARM_HOME[0] + 0.5))
         return verdicts[-1]
 
-    sol = right.solve_ik(target, hm.RIGHT_ARM_HOME, rng, accept=j1_high)
+    sol = right.solve_ik(target, hm.RIGHT_ARM_HOME, accept=j1_high)
     assert sol is not None and sol[0] > hm.RIGHT_ARM_HOME[0] + 0.5
-    assert verdicts[0] is False  # the solution descending from the seed was rejected
-    assert right.solve_ik(target, None, rng, accept=lambda q: False, max_restarts=3) is None
+    assert verdicts[0] is False and len(verdicts) <= MAX_CHECKS  # the seed itself was refused
+    assert_pose_close(right.fk_tcp(sol), target, 1e-9, 1e-9)
+    calls: list[np.ndarray] = []
+
+    def never(q: np.ndarray) -> bool:
+        calls.append(q)
+        return False
+
+    assert right.solve_ik(target, accept=never) is None
+    # Thinned: no two checks closer than the spacing, and every solution near a refused one
+    # (here 32 checks cover the pose's ~900 solutions: the branches over the whole j3 range).
+    checked, sols = np.array(calls), right.ik_solutions(target)
+    assert len(checked) <= MAX_CHECKS < len(sols)
+    gaps = np.max(np.abs(checked[:, None] - checked[None]), axis=2) + np.eye(len(checked))
+    assert np.min(gaps) >= CHECK_SPACING
+    nearest = np.min(np.max(np.abs(sols[:, None] - checked[None]), axis=2), axis=1)
+    assert np.all(nearest < CHECK_SPACING)
+    assert np.ptp(checked[:, 2]) > 4.0
 
 
-def test_ik_random_seeds_are_elbow_up(right: ArmKinematics) -> None:
-    rng = np.random.default_rng(10)
-    seeds = [right.random_configuration(rng) for _ in range(100)]
-    assert np.mean([right.elbow_height(q) > 0 for q in seeds]) > 0.95
-
-
-def test_ik_unreachable_target_returns_none(right: ArmKinematics) -> None:
-    rng = np.random.default_rng(11)
+def test_ik_unreachable_target_has_no_solution(right: ArmKinematics) -> None:
     target = np.eye(4)
     target[:3, 3] = (3.0, -0.2, 1.0)
-    assert right.solve_ik(target, hm.RIGHT_ARM_HOME, rng) is None
+    assert right.ik_solutions(target).shape == (0, 7)
+    assert right.solve_ik(target, hm.RIGHT_ARM_HOME) is None
+
+
+def test_a_level_hand_close_in_front_of_the_shoulder_is_a_real_hole() -> None:
+    """A level hand pointing straight ahead, its hand_base in front of the right shoulder at
+    table grasp height, needs |j6| > 1.56 (beyond the limit) closer than ~0.6 m: no in-limit
+    solution there (not an IK failure; with j6 unlimited there are), while at 0.75 m the arm
+    reaches it clear of the table."""
+    kin, unlimited = ArmKinematics("right"), ArmKinematics("right")
+    unlimited.lower[5], unlimited.upper[5] = -np.pi, np.pi
+    free = make_checker(TABLE, {}).checker(PROBE_HAND, objects=False)
+    for height in HEIGHTS:
+        for x in (0.45, 0.50, 0.55):
+            target = hand_pose(np.array([x, kin.shoulder[1]]), 0.0, TABLE.top_z + height)
+            assert len(kin.ik_solutions(target)) == 0
+            beyond = unlimited.ik_solutions(target)
+            assert len(beyond) and np.min(np.abs(beyond[:, 5])) > hm.ARM_JOINT_UPPER[5]
+        target = hand_pose(np.array([0.75, kin.shoulder[1]]), 0.0, TABLE.top_z + height)
+        assert kin.solve_ik(target, accept=free) is not None
 
 
 def test_left_arm_ik(bullet: tuple[BulletClient, int]) -> None:
@@ -154,9 +248,11 @@ def test_left_arm_ik(bullet: tuple[BulletClient, int]) -> None:
     rng = np.random.default_rng(12)
     for q in rng.uniform(left.lower, left.upper, size=(10, 7)):
         target = left.fk_tcp(q)
-        sol = left.solve_ik(target, None, rng)
+        sol = left.solve_ik(target)
         assert sol is not None
-        assert_pose_close(pybullet_frames(*bullet, "left", sol)[-1], target, 1e-4, 1e-3)
+        assert_pose_close(pybullet_frames(*bullet, "left", sol)[-1], target, 1e-6, 1e-6)
+    # The left arm's default seed is its own (mirrored) home pose.
+    np.testing.assert_allclose(left.solve_ik(left.fk_tcp(left.home)), left.home, atol=1e-9)
 
 
 def test_cartesian_path_is_straight_and_smooth(right: ArmKinematics) -> None:
@@ -183,3 +279,34 @@ def test_cartesian_path_fails_on_rejection_or_unreachable(right: ArmKinematics) 
     assert right.cartesian_path(hm.RIGHT_ARM_HOME, target, 10, accept=lambda q: False) is None
     target[:3, 3] = (2.0, -0.3, 1.0)
     assert right.cartesian_path(hm.RIGHT_ARM_HOME, target, 10) is None
+
+
+def test_cartesian_path_continues_from_analytic_solutions(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where a waypoint's descent fails, the analytic solution nearest the previous waypoint
+    stands in (its j3 is swept, so the line stays on the previous waypoint's branch)."""
+    kin = ArmKinematics("right")
+    monkeypatch.setattr(kin, "_descend", lambda *args, **kwargs: None)
+    start = kin.fk_tcp(hm.RIGHT_ARM_HOME)
+    target = start.copy()
+    target[:3, 3] += 0.2 * start[:3, 2]
+    path = kin.cartesian_path(hm.RIGHT_ARM_HOME, target, 12)
+    assert path is not None and np.max(np.abs(np.diff(path, axis=0))) <= 0.3
+    np.testing.assert_allclose(path[:, 2], hm.RIGHT_ARM_HOME[2])
+    for s, q in zip(np.linspace(0.0, 1.0, 12), path, strict=True):
+        waypoint = start.copy()
+        waypoint[:3, 3] += s * 0.2 * start[:3, 2]
+        assert_pose_close(kin.fk_tcp(q), waypoint, 1e-6, 1e-6)
+
+
+def test_bench_ik_writes_json(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    from agents.cli import main
+    from agents.ik_bench import ANALYTIC, PREVIOUS
+
+    out = tmp_path / "ik.json"
+    assert main(["bench", "ik", "--samples", "4", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    (line,) = capfd.readouterr().out.splitlines()
+    assert json.loads(line) == result and result["targets"] == 4
+    for name in (ANALYTIC, PREVIOUS):
+        assert result[name]["calls_per_s"] > 0 and 0 <= result[name]["success_rate"] <= 1
+    assert result["found_only_by_analytic"] >= 0 and result["found_only_by_lm_restarts"] >= 0

@@ -220,7 +220,7 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
         t[:3, 3] = (x, y, SHELF.top_z + 0.095)
         return t
 
-    q_start = k.solve_ik(pose(1.0, -0.15), hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    q_start = k.solve_ik(pose(1.0, -0.15))
     assert q_start is not None
 
     def free(q: np.ndarray) -> bool:  # a post on the straight line back to the strip

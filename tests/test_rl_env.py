@@ -221,7 +221,7 @@ def test_dense_returns_order_crash_below_waiting_below_success_trajectory() -> N
     under_table = tcp_pose(
         np.array([x, TABLE.workspace[1][1], TABLE.top_z - 0.035]), np.array([1.0, 0.0, 0.0])
     )
-    q = base.kinematics.solve_ik(under_table, None, np.random.default_rng(0))
+    q = base.kinematics.solve_ik(under_table)
     assert q is not None
     into_table = np.tile(np.r_[q, 0.0, 0.0], (base.waypoints, 1)).astype(np.float32)
     crash, _, crash_info, _ = rollout(env, lambda obs: into_table, seed=0)

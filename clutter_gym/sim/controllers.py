@@ -244,10 +244,8 @@ def _ready(surface: Surface) -> tuple[float, ...]:
     for y in np.linspace(y_lo, y_hi, READY_CANDIDATES):
         tcp = np.array([surface.bounds[0] - READY_STANDOFF, y, surface.top_z + READY_HEIGHT])
         target = tcp_pose(tcp, np.r_[centre - tcp[:2], 0.0])
-        # From HERB's home pose only: the elbow-up branch the planners use, found in ~4 ms.
-        q = kinematics.solve_ik(
-            target, None, np.random.default_rng(0), accept=accept, max_restarts=0
-        )
+        # The accepted solution nearest HERB's home pose: the elbow-up branch the planners use.
+        q = kinematics.solve_ik(target, accept=accept)
         if q is None:
             continue
         margin = float(np.min(np.minimum(q - kinematics.lower, kinematics.upper - q)))
