@@ -5,7 +5,7 @@ clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100]
     [--gif out.gif] [--figure timeline.png]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
-clutter-gym bench env|capture|plan --json out.json
+clutter-gym bench env|capture|plan|ik --json out.json [--samples 500]
 clutter-gym benchmark --suite table1|fig15|perturbed [--planners tsr,pg,pushing,pick-and-place]
     --json out.json [--md out.md] [--plots dir] [--trials 10] [--workers 2] [--backend local|ray]
 clutter-gym benchmark-plots --json out.json --out dir
@@ -175,6 +175,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         from agents.plan_bench import bench_plan
 
         result = bench_plan(args.seeds)
+    elif args.target == "ik":
+        from agents.ik_bench import bench_ik
+
+        result = bench_ik(args.samples)
     else:
         from clutter_gym.bench import bench_env
 
@@ -190,13 +194,20 @@ def _cmd_validate_capture(args: argparse.Namespace) -> int:
     from agents.validate_capture import validate
 
     report = validate(
-        args.object, args.trials, args.json, args.rotations, args.workers, args.action
+        args.object,
+        args.trials,
+        args.json,
+        args.rotations,
+        args.workers,
+        args.action,
+        args.aperture,
     )
     for rotation in args.rotations:
         print(
             json.dumps(
                 {
                     "object": report["object"],
+                    "aperture_m": report["aperture_m"],
                     "rotation_deg": rotation,
                     **{
                         k: v
@@ -433,6 +444,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     validate.add_argument("--trials", type=count, default=1000, help="grid poses per rotation")
     validate.add_argument(
+        "--aperture",
+        type=positive_number,
+        default=None,
+        help="push-grasp preshape, m between the fingertips (default: one that fits the object "
+        "at any orientation; the planner's are listed by planners.capture.push_grasp_apertures)",
+    )
+    validate.add_argument(
         "--json", type=output_file, required=True, help="report; its trials log goes beside it"
     )
     validate.add_argument(
@@ -466,7 +484,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_rl_commands(sub, count, seed)
 
     bench = sub.add_parser("bench", help="speed and memory benchmarks, written as JSON")
-    bench.add_argument("target", choices=("env", "capture", "plan"), help="what to measure")
+    bench.add_argument("target", choices=("env", "capture", "plan", "ik"), help="what to measure")
     bench.add_argument("--json", type=output_file, default=None, help="also write the result here")
     bench.add_argument("--steps", type=count, default=2000, help="env: low-level steps to time")
     bench.add_argument(
@@ -481,6 +499,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--objects", type=names, default=None, help="capture: comma-separated kinds (default all)"
     )
     bench.add_argument("--seeds", type=count, default=3, help="plan: detections per scene")
+    bench.add_argument(
+        "--samples", type=count, default=500, help="ik: level-hand target poses to solve"
+    )
     bench.set_defaults(func=_cmd_bench)
     return parser
 

@@ -67,6 +67,7 @@ from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.actions.sweep import SWEEP_RETREAT
 from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, sweep_region
 from planners.hand2d import (
+    check_fits,
     closure_for_aperture,
     default_aperture,
     push_grasp_profile,
@@ -117,14 +118,14 @@ class Trial:
 
 
 def resolve_kind(name: str, action: str = "push-grasp") -> str:
-    """The object kind of a CLI name, if ``action`` can be done to it."""
+    """The object kind of a CLI name, if ``action`` can be done to it. Any object can be swept
+    here, one the planner never pushes (``pushable=False``) included: whether it stays upright
+    when swept is what decides that flag."""
     kind = ALIASES.get(name, name)
     if kind not in OBJECTS:
         allowed = sorted({*ALIASES, *OBJECTS})
         raise ValueError(f"--object: unknown object {name!r}; allowed: {', '.join(allowed)}")
     spec = OBJECTS[kind]
-    if action == "sweep" and not spec.pushable:
-        raise ValueError(f"--object: {kind} is not pushable (it tips over), so it is never swept")
     if action == "push-grasp" and not (spec.graspable and spec.liftable):
         raise ValueError(f"--object: {kind} cannot be push-grasped and lifted")
     return kind
@@ -187,7 +188,6 @@ class Setup:
 def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
     """A reachable straight push along heading `rotation_deg` (0 = the robot's forward)."""
     kinematics = ArmKinematics("right")
-    rng = np.random.default_rng(0)
     heading = math.radians(rotation_deg)
     direction = np.array([math.cos(heading), math.sin(heading), 0.0])
     preshaped = HandCommand(0.0, push_grasp_profile(aperture).closure)
@@ -203,7 +203,7 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
         for y in (-0.25, -0.30, -0.20, -0.35, -0.15, -0.40):
             hand_base = np.array([x, y, z])
             start_tcp = hand_base + tcp_offset
-            q0 = kinematics.solve_ik(pose(start_tcp), hm.RIGHT_ARM_HOME, rng, n_solutions=1)
+            q0 = kinematics.solve_ik(pose(start_tcp))
             if q0 is None:
                 continue
             end_tcp = start_tcp + DISTANCE * direction
@@ -579,14 +579,14 @@ def rotation_summary(trials: Sequence[Trial], action: str) -> dict[str, Any]:
 
 
 def _jobs(
-    spec: ObjectSpec, action: str, trials: int, rotations: Sequence[float]
+    spec: ObjectSpec, action: str, trials: int, rotations: Sequence[float], aperture: float | None
 ) -> tuple[CaptureRegion | SweepRegion, np.ndarray, list[Setup], list[ValidationJob]]:
     """The region validated, the grid, the set-ups and one job per trial: every grid pose at
     every rotation (sweeps: with each side, from the first of its starts that runs it)."""
     poses: np.ndarray
     if action == "push-grasp":
         region: CaptureRegion | SweepRegion = push_grasp_region(
-            spec.footprint, default_aperture(spec.footprint)
+            spec.footprint, aperture or default_aperture(spec.footprint)
         )
         poses = grid(spec, trials)
         runs = [[plan_push(spec, region.aperture, r)] for r in rotations]
@@ -610,13 +610,22 @@ def validate(
     rotations: Sequence[float] = (0.0, 45.0),
     workers: int = 2,
     action: str = "push-grasp",
+    aperture: float | None = None,
 ) -> dict[str, Any]:
-    """Run (or resume) ``trials`` grid poses of ``action`` at every rotation; the report, also
-    written to ``out`` (its trials log beside it)."""
+    """Run (or resume) ``trials`` grid poses of ``action`` at every rotation, push-grasps with
+    the hand preshaped to ``aperture`` (default `default_aperture`); the report, also written
+    to ``out`` (its trials log beside it)."""
     if action not in ACTIONS:
         raise ValueError(f"--action: {action!r}; allowed: {', '.join(ACTIONS)}")
     spec = get_object(resolve_kind(name, action))
-    region, poses, setups, jobs = _jobs(spec, action, trials, rotations)
+    if aperture is not None:
+        if action != "push-grasp":
+            raise ValueError("--aperture: only push-grasps take an aperture (sweeps use one)")
+        try:
+            check_fits(spec.footprint, aperture)
+        except ValueError as error:
+            raise ValueError(f"--aperture: {error}") from None
+    region, poses, setups, jobs = _jobs(spec, action, trials, rotations, aperture)
     predicted = (
         region.query(poses, DISTANCE)[0]
         if isinstance(region, SweepRegion)
@@ -649,6 +658,7 @@ def validate(
         "object": spec.kind,
         "action": action,
         "aperture_m": region.aperture,
+        "pushable": spec.pushable,  # whether the planner pushes it (a sweep run decides)
         "distance_m": DISTANCE,
         "grid_points": len(poses),
         "setups": [

@@ -16,8 +16,8 @@ from clutter_gym.model.objects import get_object
 from clutter_gym.model.scene import Scene, load_scene, scene_from_dict
 from clutter_gym.model.world import TABLE
 from planners.actions.settings import PlannerSettings
-from planners.capture import push_grasp_apertures, push_grasp_region
-from planners.hand2d import push_grasp_profile
+from planners.capture import push_grasp_region
+from planners.hand2d import STRAIGHT_APERTURE, push_grasp_profile
 from planners.rearrange import Plan, plan_retrieval
 from planners.tsr import GraspTSR, grasps_every_sample
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
@@ -53,7 +53,7 @@ def plan(scene: str | Scene, noise: str, planner: str) -> Plan:
 
 
 def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
-    aperture = max(push_grasp_apertures(CAN.footprint))
+    aperture = STRAIGHT_APERTURE  # the widest with the fingertips innermost
     region = push_grasp_region(CAN.footprint, aperture)
     profile = push_grasp_profile(aperture)
     depth = profile.grasp_line - 0.03

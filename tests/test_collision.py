@@ -17,6 +17,9 @@ from clutter_gym.model.collision import (
     SELF_COLLISION_GROUPS,
     SURFACE_PADDING,
     CollisionChecker,
+    CollisionWorld,
+    RobotCollision,
+    Volume,
     interpolate,
     make_checker,
 )
@@ -93,7 +96,7 @@ def tcp_target(
 
 
 def solve(kin: ArmKinematics, target: np.ndarray) -> np.ndarray:
-    q = kin.solve_ik(target, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    q = kin.solve_ik(target)
     assert q is not None
     return q
 
@@ -171,10 +174,10 @@ def test_checker_as_ik_accept_gives_free_solutions(checker: CollisionChecker) ->
     kin = checker.robot.kinematics
     free = checker.checker(CLOSED, objects=False)
     rng = np.random.default_rng(1)
-    assert kin.solve_ik(tcp_target(*CLEAR_XY, 0.70), None, rng, accept=free) is None
+    assert kin.solve_ik(tcp_target(*CLEAR_XY, 0.70), accept=free) is None
     for _ in range(5):
         x, y = rng.uniform(0.75, 1.0), rng.uniform(-0.6, 0.0)
-        q = kin.solve_ik(tcp_target(x, y, TABLE.top_z + 0.08), None, rng, accept=free)
+        q = kin.solve_ik(tcp_target(x, y, TABLE.top_z + 0.08), accept=free)
         assert q is not None
         assert not checker.surface_collision(q, CLOSED)
         assert not checker.robot.self_collision(q, CLOSED)
@@ -197,7 +200,7 @@ def random_scene_configurations(kin: ArmKinematics, n: int) -> list[tuple[np.nda
             TABLE.top_z + rng.uniform(0.0, 0.25),
             (np.cos(heading), np.sin(heading)),
         )
-        q = kin.solve_ik(target, None, rng, max_restarts=2)
+        q = kin.solve_ik(target)
         if q is not None:
             out.append((q, hand))
     return out
@@ -262,8 +265,29 @@ def test_planning_pads_the_surface() -> None:
     """A hand 1 cm above the table is free for the exact surface, not for planning."""
     kinematics = ArmKinematics("right")
     target = tcp_target(0.9, -0.3, TABLE.top_z + hm.HAND_PALM_RADIUS + 0.01)
-    q = kinematics.solve_ik(target, hm.RIGHT_ARM_HOME, np.random.default_rng(0))
+    q = kinematics.solve_ik(target)
     assert q is not None
     assert not make_checker(TABLE, {}, padding=0.0).surface_collision(q)
     assert SURFACE_PADDING > 0.01
     assert make_checker(TABLE, {}).surface_collision(q)
+
+
+def test_a_hull_hit_is_confirmed_against_the_samples() -> None:
+    """avoidVol is the union of the uncertainty samples (Algorithm 1, line 3): the hand may
+    stand between two samples of an object, where their convex hull alone would refuse it."""
+    kin = ArmKinematics("right")
+    samples = np.array([[0.72, -0.45, 0.0], [0.72, 0.05, 0.0]])
+    obstacles = Volume.of_object("can", OBJECTS["soda_can"], samples, TABLE.top_z)
+    robot = RobotCollision(kin, ArmGeometry())
+
+    def world(**how: bool) -> CollisionChecker:
+        return CollisionChecker(CollisionWorld.around(TABLE, obstacles, **how), robot)
+
+    hull_only = CollisionChecker(CollisionWorld.around(TABLE, obstacles.hulled()), robot)
+    exact, hulled = world(), world(hulled=True)
+    between = solve(kin, tcp_target(0.84, -0.20, TABLE.top_z + 0.08))
+    assert hull_only.in_collision(between)
+    assert not exact.in_collision(between) and not hulled.in_collision(between)
+    at_sample = solve(kin, tcp_target(0.84, -0.45, TABLE.top_z + 0.08))
+    assert exact.in_collision(at_sample) and hulled.in_collision(at_sample)
+    assert hulled.touching_objects(at_sample) == {"can"}

@@ -339,14 +339,28 @@ class CollisionWorld:
 
     @classmethod
     def around(
-        cls, surface: Surface, obstacles: Volume, padding: float = SURFACE_PADDING
+        cls,
+        surface: Surface,
+        obstacles: Volume,
+        padding: float = SURFACE_PADDING,
+        hulled: bool = False,
     ) -> CollisionWorld:
-        """A world whose objects are a `Volume` (e.g. an avoid volume of uncertainty samples)."""
+        """A world whose objects are a `Volume` (e.g. an avoid volume of uncertainty samples).
+
+        With ``hulled`` the arm is tested against one convex hull per object first (cheap:
+        `Volume.hulled`), and a hit is confirmed against the exact union of the shapes, which
+        is what avoidVol is (Algorithm 1, line 3): a hull also covers the gaps between samples.
+        """
         world = cls.__new__(cls)
-        world._init(surface, obstacles, padding)
+        if hulled:
+            world._init(surface, obstacles.hulled(), padding, exact=obstacles)
+        else:
+            world._init(surface, obstacles, padding)
         return world
 
-    def _init(self, surface: Surface, obstacles: Volume, padding: float) -> None:
+    def _init(
+        self, surface: Surface, obstacles: Volume, padding: float, exact: Volume | None = None
+    ) -> None:
         self.surface = surface
         self._surface_objects = [
             fcl.CollisionObject(
@@ -357,9 +371,11 @@ class CollisionWorld:
         ]
         self.surface_manager = _manager(self._surface_objects)
         self.obstacles = obstacles
-        #: Object name of every object geometry, by ``id(geometry)``.
-        self.owner: dict[int, str] = obstacles.owner
+        #: Object name of every object geometry (hulls and exact shapes), by ``id(geometry)``.
+        self.owner: dict[int, str] = {**obstacles.owner, **(exact.owner if exact else {})}
         self.object_manager = obstacles.manager
+        #: Where ``obstacles`` are hulls: the exact shapes that confirm a hit on a hull.
+        self.exact_manager = exact.manager if exact is not None and exact.parts else None
 
     def geometry_ids(self, names: Iterable[str]) -> frozenset[int]:
         """Geometry ids of the named objects (unknown names are an error, not a silent no-op)."""
@@ -440,9 +456,16 @@ class CollisionChecker:
     ) -> bool:
         if self.surface_collision(q, hand):
             return True
-        if _collide(self.robot.manager, self.world.object_manager, _Query(skip)).hits:
+        if self._object_hit(self.world.object_manager, skip) and (
+            self.world.exact_manager is None or self._object_hit(self.world.exact_manager, skip)
+        ):
             return True
         return self_collision and self.robot.self_collision(q, hand)
+
+    def _object_hit(
+        self, objects: fcl.DynamicAABBTreeCollisionManager, skip: frozenset[int]
+    ) -> bool:
+        return bool(_collide(self.robot.manager, objects, _Query(skip)).hits)
 
     def touching_objects(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> set[str]:
         """Names of the objects the arm penetrates at q (FindPenetrated)."""

@@ -33,8 +33,8 @@ ARM_CHECK_STEP = 0.02
 """rad between collision-checked configurations along a motion."""
 WAYPOINT_SPACING = 0.025
 """m between waypoints of straight hand motions."""
-IK_RESTARTS = 8
-"""Restarts of an IK solve from random elbow-up configurations after the home pose."""
+POSE_KEY_DECIMALS = 9
+"""Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
@@ -59,13 +59,17 @@ class Arm:
         self.kinematics = ArmKinematics("right")
         self.robot = RobotCollision(self.kinematics, ArmGeometry())
         self.reach = shipped_map(surface.name)
+        # The planner asks for the same poses again and again with other obstacles: each
+        # pose's analytic IK solutions (seeded by the home pose) are computed once.
+        self._solutions: dict[bytes, np.ndarray] = {}
 
     # -- collision ------------------------------------------------------------------------------
     def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> Free:
         """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
-        ``obstacles`` (each object's uncertainty samples as one convex hull, or with ``exact``
-        every sample: for the hand moving away from an object it has just placed)."""
-        world = CollisionWorld.around(self.surface, obstacles if exact else obstacles.hulled())
+        ``obstacles``, the union of every object's uncertainty samples (each object's convex
+        hull first, the samples themselves only where a hull is hit; with ``exact`` the samples
+        alone: for the hand moving away from an object it has just placed)."""
+        world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
         free = CollisionChecker(world, self.robot).checker(hand)
 
         def counted(q: np.ndarray) -> bool:
@@ -76,11 +80,12 @@ class Arm:
 
     def motion_free(self, segments: Iterable[Segment], obstacles: Volume) -> bool:
         """Whether every segment is clear of ``obstacles``, checked every `ARM_CHECK_STEP`."""
-        for s in segments:
-            free = self.free_check(obstacles, s.hand)
-            if not all(free(q) for q in interpolate(s.path, ARM_CHECK_STEP)):
-                return False
-        return True
+        with self.stats.timed("collision"):
+            for s in segments:
+                free = self.free_check(obstacles, s.hand)
+                if not all(free(q) for q in interpolate(s.path, ARM_CHECK_STEP)):
+                    return False
+            return True
 
     def volume(self, trajectory: Trajectory) -> Volume:
         """Volume(robot, tau), sampled every `ARM_CHECK_STEP`."""
@@ -88,17 +93,19 @@ class Arm:
 
     # -- inverse kinematics ---------------------------------------------------------------------
     def solve(self, target: np.ndarray, accept: Free) -> np.ndarray | None:
-        """A collision-free configuration putting the TCP at ``target`` (4x4), or None. A
-        horizontal hand the reachability map says no arm configuration reaches is refused at
-        once, without IK (about half the IK solves of a cluttered scene fail, each after
-        many descents)."""
+        """The collision-free configuration nearest the home pose putting the TCP at
+        ``target`` (4x4), or None. A horizontal hand the reachability map says no arm
+        configuration reaches is refused at once, without IK (about half the IK solves of a
+        cluttered scene fail)."""
         if self._unreachable(target):
             self.stats.ik_skipped += 1
             return None
         with self.stats.timed("ik"):
-            return self.kinematics.solve_ik(
-                target, hm.RIGHT_ARM_HOME, self.rng, accept=accept, max_restarts=IK_RESTARTS
-            )
+            key = (np.round(target, POSE_KEY_DECIMALS) + 0.0).tobytes()  # + 0.0: no -0.0
+            solutions = self._solutions.get(key)
+            if solutions is None:
+                solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
+            return self.kinematics.select(solutions, accept)
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""
