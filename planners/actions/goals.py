@@ -47,6 +47,10 @@ class AwayFrom:
     ngr: Volume
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        with ctx.stats.timed("goal"):
+            return self._accepts(ctx, name, final, held)
+
+    def _accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
         if held or not ctx.stays_stable(name, final):
             return False
         near = self._near(ctx, name, final)
@@ -63,7 +67,8 @@ class AwayFrom:
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         """A quick sufficient test: stable, and every pose's bounding square clears the NGR
         in the top-view map (no exact geometry)."""
-        return ctx.stays_stable(name, final) and not self._near(ctx, name, final).any()
+        with ctx.stats.timed("goal"):
+            return ctx.stays_stable(name, final) and not self._near(ctx, name, final).any()
 
     def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
         spec = ctx.beliefs[name].spec

@@ -79,8 +79,10 @@ def hand_in(
     if not arm.motion_free((push,), avoid):
         return Failure(name, action, "the arm hits avoidVol during the push")
     nu = evolve()
-    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
-        return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
+    with ctx.stats.timed("volumes"):
+        swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
+        if swept.intersects(avoid):
+            return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
     return HandIn(push, q_end, end_xy, heading, z, nu)
 
 

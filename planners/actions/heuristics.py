@@ -23,11 +23,12 @@ def corridor_hits(
     yaw = math.atan2(delta[1], delta[0])
     centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
     corridor = Volume.of_box("corridor", centre, (length, width, 0.12), yaw)
-    return {
-        other
-        for other in ctx.beliefs
-        if other != name and corridor.intersects(ctx.uncertainty_volume(other))
-    }
+    with ctx.stats.timed("heuristics"):
+        return {
+            other
+            for other in ctx.beliefs
+            if other != name and corridor.intersects(ctx.uncertainty_volume(other))
+        }
 
 
 def base_heading(shoulder: np.ndarray, xy: np.ndarray) -> float:

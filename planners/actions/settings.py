@@ -64,15 +64,23 @@ class PlanStats:
     collision_checks: int = 0
     ik_skipped: int = 0  # IK solves the reachability map ruled out
     seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+    # Time spent in blocks nested inside each open `timed` block, innermost last.
+    _nested: list[float] = field(default_factory=list, repr=False)
 
     @contextmanager
     def timed(self, part: str) -> Iterator[None]:
-        """Add the block's wall-clock time to ``seconds[part]``."""
+        """Add the block's wall-clock time to ``seconds[part]``, less the time of the `timed`
+        blocks nested in it: every second is counted once, in the innermost part, so the parts
+        add up to at most the planning time."""
         began = time.perf_counter()
+        self._nested.append(0.0)
         try:
             yield
         finally:
-            self.seconds[part] += time.perf_counter() - began
+            elapsed = time.perf_counter() - began
+            self.seconds[part] += elapsed - self._nested.pop()
+            if self._nested:
+                self._nested[-1] += elapsed
 
     def record(self) -> StatsRecord:
         return StatsRecord(

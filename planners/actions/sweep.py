@@ -278,8 +278,10 @@ def _sweep_motion(
     motion = Segment("sweep", path, hand)
     if not arm.motion_free((motion,), avoid):
         return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
-    if Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z).intersects(avoid):
-        return Failure(name, ACTION, "the object's uncertainty sweeps into avoidVol")
+    with ctx.stats.timed("volumes"):
+        swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
+        if swept.intersects(avoid):
+            return Failure(name, ACTION, "the object's uncertainty sweeps into avoidVol")
     placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
     clear = arm.free_check(placed, hand, exact=True)
     back_xy = end_xy - SWEEP_RETREAT * frame.x_axis
