@@ -165,7 +165,7 @@ def _make_act(job: EvalJob, env: gym.Env) -> Any:
         return lambda env, info: act
     if agent.kind == "scripted":
         return lambda env, info: DirectGraspPolicy(
-            env.get_wrapper_attr("waypoints"), env.get_wrapper_attr("surface"), seed=seed
+            env.get_wrapper_attr("waypoints"), env.get_wrapper_attr("surface")
         )
     settings = PlannerSettings(seed=seed, time_budget=job.budget)
     return lambda env, info: RearrangePolicy(

@@ -32,6 +32,7 @@ from clutter_gym.model.noise import detect, resolve_noise
 from clutter_gym.model.scene import Scene, load_scene, scene_to_dict
 from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS
 from clutter_gym.model.world import get_surface
+from planners.actions.arm import IKSolver
 from planners.actions.settings import PlannerSettings
 from planners.rearrange import Plan, plan_retrieval, planner_kind
 from planners.uncertainty import ObjectBelief, beliefs, sample_count
@@ -80,6 +81,7 @@ def plan_from_detection(
     settings: PlannerSettings,
     samples: int | None,
     rng: np.random.Generator,
+    ik: IKSolver | None = None,
 ) -> tuple[Plan, list[ObjectBelief]]:
     sigma = resolve_noise(scene.noise)
     n = samples or sample_count(sigma)
@@ -96,6 +98,7 @@ def plan_from_detection(
         settings,
         scene.goal.region,
         planner,
+        ik,
     )
     return plan, believed
 

@@ -154,7 +154,7 @@ class ClutterRetrievePrimitiveEnv(gym.Env[np.ndarray, np.ndarray]):
         ctx = PlanningContext(
             seen.surface, beliefs, settings, seen.goal_region, np.random.default_rng(0)
         )
-        arm = Arm(seen.surface, settings, ctx.stats, ctx.budget, ctx.rng)
+        arm = Arm(seen.surface, settings, ctx.stats, ctx.budget)
         primitive = _primitive(beliefs[name], a, arm)
         outcome = execute_primitive(ctx, arm, primitive, Volume())
         if isinstance(outcome, Failure):

@@ -26,7 +26,7 @@ class DirectGraspPolicy:
     fails, `self.failure` holds the reason and the policy holds the arm still.
     """
 
-    def __init__(self, waypoints: int, surface: Surface, seed: int = 0) -> None:
+    def __init__(self, waypoints: int, surface: Surface) -> None:
         self.kinematics = ArmKinematics("right")
         self.waypoints = waypoints
         self.surface_z = surface.top_z
@@ -34,7 +34,6 @@ class DirectGraspPolicy:
         self.collision_free = make_checker(surface, {}).checker(
             hand=HandCommand(0.0, PRESHAPE_CLOSURE), objects=False
         )
-        self.rng = np.random.default_rng(seed)
         self.plan: np.ndarray | None = None
         self.failure = ""
 
@@ -49,7 +48,7 @@ class DirectGraspPolicy:
             )
             try:
                 grasp = plan_direct_grasp(
-                    self.kinematics, request, self.waypoints, self.rng, self.collision_free
+                    self.kinematics, request, self.waypoints, self.collision_free
                 )
             except PlanningError as error:
                 self.failure = str(error)

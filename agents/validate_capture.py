@@ -11,7 +11,7 @@ of `DISTANCE`, closing the fingers, a 15 cm lift. Success is the env's: held by 
 lifted 10 cm.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
-`grasp_height`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
+`PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
 2 cm back and up. Starts are found as the planner finds them (its `Arm`: IK from HERB's home, clear
 of the table with the planner's padding, a straight line back from the end), wherever the rest of
 the arm then is, and placed so that the object stands on the table before and after (a few starts
@@ -56,7 +56,7 @@ from clutter_gym.model.collision import Volume, make_checker
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, footprint_gap, get_object
-from clutter_gym.model.reachability import grasp_height, hand_pose, tcp_pose
+from clutter_gym.model.reachability import PUSH_HEIGHT, hand_pose, tcp_pose
 from clutter_gym.model.scene import SCENE_FORMAT
 from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS, Segment, Trajectory
 from clutter_gym.model.transforms import Frame2D, tilt_of_quaternion
@@ -192,7 +192,7 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
     direction = np.array([math.cos(heading), math.sin(heading), 0.0])
     preshaped = HandCommand(0.0, push_grasp_profile(aperture).closure)
     closed = HandCommand(0.0, GRASP_CLOSURE)
-    z = TABLE.top_z + grasp_height(spec.height)
+    z = TABLE.top_z + PUSH_HEIGHT
     tcp_offset = hm.HAND_TCP_OFFSET * direction
 
     def pose(tcp: np.ndarray) -> np.ndarray:
@@ -237,9 +237,9 @@ def plan_sweeps(
     the left side's set-up is its mirror image across the robot's forward axis (approach along
     -`rotation_deg`): both sweep away from the robot, the way the region's frame mirrors."""
     angle = handedness * (math.radians(rotation_deg) - math.pi / 2)
-    z = TABLE.top_z + grasp_height(spec.height)
+    z = TABLE.top_z + PUSH_HEIGHT
     hand = HandCommand(0.0, closure_for_aperture(region.aperture))
-    arm = Arm(TABLE, PlannerSettings(), PlanStats(), Budget(math.inf), np.random.default_rng(0))
+    arm = Arm(TABLE, PlannerSettings(), PlanStats(), Budget(math.inf))
     free = arm.free_check(Volume(), hand)
     risen = rise_height(TABLE.top_z, spec.height, z)
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
-from clutter_gym.model.reachability import grasp_height, tcp_pose
+from clutter_gym.model.reachability import PUSH_HEIGHT, tcp_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT
 
@@ -41,7 +41,6 @@ def plan_direct_grasp(
     kinematics: ArmKinematics,
     request: GraspRequest,
     waypoints: int,
-    rng: np.random.Generator,
     accept: Callable[[np.ndarray], bool] | None = None,
 ) -> Trajectory:
     """Hover, pregrasp, straight approach, close, lift: a trajectory that fits one env action
@@ -51,7 +50,7 @@ def plan_direct_grasp(
     the arm's joint limits rule out some headings at some places on the table.
     """
     x, y, _ = request.pose
-    centre = np.array([x, y, request.surface_z + grasp_height(request.height)])
+    centre = np.array([x, y, request.surface_z + PUSH_HEIGHT])
     to_object = centre[:2] - kinematics.shoulder[:2]
     base_heading = float(np.arctan2(to_object[1], to_object[0]))
     failures: list[str] = []

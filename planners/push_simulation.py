@@ -132,11 +132,50 @@ def _point_polygon(p: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, ...]:
     return signed, normal, closest
 
 
+def _signed_distance(p: np.ndarray, verts: np.ndarray) -> np.ndarray:
+    """Signed distance of points to convex polygons (negative inside) alone, without the
+    normals and nearest points of `_point_polygon`. p: (..., 2), verts: (..., k, 2) broadcast."""
+    e = np.roll(verts, -1, axis=-2) - verts
+    e2 = (e * e).sum(-1)
+    rel = p[..., None, :] - verts
+    side = (rel[..., 0] * e[..., 1] - rel[..., 1] * e[..., 0]) / np.sqrt(e2)
+    t = np.clip((rel * e).sum(-1) / e2, 0.0, 1.0)
+    outside = np.linalg.norm(rel - t[..., None] * e, axis=-1).min(-1)
+    deepest = side.max(-1)
+    return np.where(deepest <= 0.0, deepest, outside)
+
+
 def box_corners(half_extents: tuple[float, float], poses: np.ndarray) -> np.ndarray:
     """Corners (N, 4, 2), counter-clockwise, of boxes at poses (N, 3)."""
     hx, hy = half_extents
     local = np.array([[hx, -hy], [hx, hy], [-hx, hy], [-hx, -hy]])
     return poses[:, None, :2] + np.einsum("nij,kj->nki", rotation_2d(poses[:, 2]), local)
+
+
+def smallest_gap(footprint: Footprint, pusher: Pusher, poses: np.ndarray) -> np.ndarray:
+    """The smallest of `contacts`' gaps per pose (N,): how far the object at each pose (N, 3)
+    is from the pusher, negative by the depth it overlaps; for overlap tests, which need no
+    contact points or normals."""
+    cc, cr = pusher._circle_arrays
+    out = np.full(len(poses), np.inf)
+    if footprint.shape == "circle":
+        center = poses[:, None, :2]
+        for verts in pusher._groups:
+            out = np.minimum(out, _signed_distance(center, verts[None]).min(1) - footprint.radius)
+        if len(cr):
+            d = np.linalg.norm(center - cc[None], axis=-1) - cr[None] - footprint.radius
+            out = np.minimum(out, d.min(1))
+        return out
+    corners = box_corners(footprint.half_extents, poses)  # (N, 4, 2)
+    for verts in pusher._groups:
+        inside = _signed_distance(corners[:, :, None, :], verts[None, None])  # (N, 4, P)
+        pv = verts.reshape(-1, 2)
+        into = _signed_distance(pv[None], corners[:, None])  # (N, V)
+        out = np.minimum(out, np.minimum(inside.min((1, 2)), into.min(1)))
+    if len(cr):
+        d = _signed_distance(np.broadcast_to(cc, (len(poses), *cc.shape)), corners[:, None])
+        out = np.minimum(out, (d - cr[None]).min(1))
+    return out
 
 
 def contacts(

@@ -27,7 +27,7 @@ from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import Region, Surface
 from planners.actions import ACTIONS, CAN_MOVE
-from planners.actions.arm import Arm
+from planners.actions.arm import Arm, IKSolver
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom, Goal, Retrieve
 from planners.actions.results import ActionResult, Failure
@@ -189,6 +189,7 @@ def plan_retrieval(
     settings: PlannerSettings | None = None,
     goal_region: Region | None = None,
     planner: str = "pushing",
+    ik: IKSolver | None = None,
 ) -> Plan:
     """Plan to retrieve ``goal`` with the named planner (`PLANNERS`):
     Rearrange(goal, {in hand}, {}, {}, {}, *).
@@ -207,7 +208,7 @@ def plan_retrieval(
     q0 = np.asarray(start_arm, dtype=float)
     if q0.shape != (7,) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start_arm: {start_arm!r}; expected 7 finite joint angles")
-    rng = np.random.default_rng(settings.seed)  # one stream for IK restarts and TSR draws
+    rng = np.random.default_rng(settings.seed)  # the TSR's draws
     ctx = PlanningContext(
         surface,
         {b.name: b for b in beliefs},
@@ -215,7 +216,7 @@ def plan_retrieval(
         goal_region or surface.default_goal_region,
         rng,
     )
-    arm = Arm(surface, settings, ctx.stats, ctx.budget, rng)
+    arm = Arm(surface, settings, ctx.stats, ctx.budget, ik)
     lower, upper = arm.kinematics.lower, arm.kinematics.upper
     if np.any(q0 < lower - 1e-6) or np.any(q0 > upper + 1e-6):
         raise ValueError("start_arm: outside the joint limits")

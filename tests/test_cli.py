@@ -13,6 +13,8 @@ from PIL import Image
 
 from agents import jobs
 from agents.cli import main
+from agents.ik_bench import ANALYTIC, PREVIOUS
+from agents.plan_bench import bench_plan
 from clutter_gym.model.scene import generate_scene, load_scene
 from tests.helpers import OUT_OF_REACH, lone_can
 
@@ -75,14 +77,14 @@ def test_bench_env_writes_json(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_bench_plan_writes_json(tmp_path: Path) -> None:
-    out = tmp_path / "plan.json"
-    assert main(["bench", "plan", "--seeds", "1", "--json", str(out)]) == 0
-    result = json.loads(out.read_text())
-    fig3 = result["fig3_can_box_dumbbell/sigma2"]
-    assert fig3["planned"] == 1 and fig3["objects_moved"] == [["big_box"]]
-    assert 0 < fig3["median_planning_time_s"] < 60
-    assert set(result) >= {"fig2_high_uncertainty/sigma3", "fig16_shelf_can_behind_box/sigma2"}
+def test_bench_plan_compares_the_ik_solvers_on_the_same_detections() -> None:
+    result = bench_plan(1, ("sigma2",), ("figures/fig2_high_uncertainty",))
+    fig2 = result["fig2_high_uncertainty/sigma2"]
+    assert set(fig2) == {ANALYTIC, PREVIOUS} and set(result["all"]) == {ANALYTIC, PREVIOUS}
+    for summary in fig2.values():
+        assert summary["planned"] == 1 and summary["objects_moved"] == [[]]
+        assert 0 < summary["median_planning_time_s"] < 60
+        assert 0 < summary["ik_share"] < 1 and 0 < summary["accounted_share"] <= 1
 
 
 def test_console_script_is_installed() -> None:

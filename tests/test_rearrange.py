@@ -211,7 +211,7 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
     settings = PlannerSettings(goto_evaluations=100_000)
     rng = np.random.default_rng(0)
     ctx = PlanningContext(SHELF, {"can": can}, settings, SHELF.default_goal_region, rng)
-    arm = Arm(SHELF, settings, ctx.stats, ctx.budget, rng)
+    arm = Arm(SHELF, settings, ctx.stats, ctx.budget)
     k = arm.kinematics
 
     def pose(x: float, y: float) -> np.ndarray:

@@ -18,8 +18,7 @@ import pytest
 import clutter_gym
 from agents.scripted import DirectGraspPolicy
 from clutter_gym.env import ClutterRetrieveEEEnv, ClutterRetrieveEnv
-from clutter_gym.model.objects import get_object
-from clutter_gym.model.reachability import grasp_height, tcp_pose
+from clutter_gym.model.reachability import PUSH_HEIGHT, tcp_pose
 from clutter_gym.model.scene import (
     SCENE_FORMAT,
     Scene,
@@ -79,7 +78,7 @@ class ScriptedSideGrasp:
         self.goal = np.asarray(obs["desired_goal"][:2], dtype=float)
         start = self.herb.tcp_pose()[0]
         self.direction = (self.goal - start[:2]) / np.linalg.norm(self.goal - start[:2])
-        self.z = TABLE.top_z + grasp_height(get_object(kind).height)
+        self.z = TABLE.top_z + PUSH_HEIGHT
         self.phase, self.count, self.hold = 0, 0, np.zeros(3)
 
     def target(self) -> tuple[np.ndarray, float]:
@@ -264,8 +263,7 @@ def test_region_potential_rises_as_the_goal_nears_the_shelf_front() -> None:
     base.reset(seed=1)
     goal = base.scene.goal.object
     (x_lo, x_hi), (y_lo, y_hi) = base.scene.goal.region
-    kind = next(o.kind for o in base.scene.objects if o.name == goal)
-    above = np.array([0.0, 0.0, grasp_height(get_object(kind).height)])
+    above = np.array([0.0, 0.0, PUSH_HEIGHT])
 
     def potential() -> float:
         outcome = base.task.evaluate()

@@ -220,8 +220,10 @@ def _dumbbell() -> ObjectSpec:
         rgba=(0.10, 0.15, 0.45, 1.0),
         graspable=True,  # by the handle
         liftable=False,  # too heavy for the arm's payload
-        # The hand meets only the handle, 9 cm up; with the centre of mass 12.5 cm up over a
-        # 6 cm base radius it toppled when swept in simulation.
+        # Swept at the planner's push height (TCP 7.5 cm up, `PUSH_HEIGHT`) it still topples:
+        # `clutter-gym validate-capture --object dumbbell --action sweep --trials 30` ran 106
+        # sweeps (0 and 45 deg, both sides of the hand): 15 toppled and 6 tilted past 10 deg;
+        # of the 36 the sweep region predicted to carry it, 12 toppled and 4 tilted.
         pushable=False,
     )
 

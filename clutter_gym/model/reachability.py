@@ -107,14 +107,15 @@ HEADINGS_DEG = tuple(float(h) for h in range(-180, 180, 15))
 """Approach yaws all around (the paper searches push directions over [0, 2 pi), §2.2.6): the
 right arm reaches around a near object to push it toward the robot or to the right."""
 HEIGHTS = (0.075, 0.09)
-"""TCP heights above the support: every object's grasp height (`grasp_height` clamps to this)."""
-
-
-def grasp_height(height: float) -> float:
-    """TCP height above the support that grasps or pushes an upright object of ``height`` from
-    the side: mid-object, but high enough that the wrist housing (4.5 cm radius, level with the
-    TCP in a horizontal approach) clears the support, and no higher than the map's top height."""
-    return min(max(0.5 * height, HEIGHTS[0]), HEIGHTS[-1])
+"""TCP heights above the support on the map: `PUSH_HEIGHT` and the end-effector variants'
+ready height (`clutter_gym.sim.controllers.READY_HEIGHT`)."""
+PUSH_HEIGHT = HEIGHTS[0]
+"""TCP height above the support of pushes, sweeps and side grasps: as low as the hand allows,
+because the paper pushes objects "as low as possible" so that they do not topple (§2.2.1). The
+wrist housing (4.5 cm in radius, level with the TCP in a horizontal approach) then clears the
+support by 3 cm, twice the planner's padding; every object is taller than the hand there.
+Where the arm cannot hold the hand that low (far out, the forearm slopes down to the support),
+the planner takes the map's next height (`planners.actions.arm.Arm.push_height`)."""
 
 
 def default_grid(surface: Surface) -> Grid:

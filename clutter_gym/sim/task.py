@@ -21,7 +21,7 @@ with Phi(s') = 0 when s' ends the episode (success or failure), and
 
 from three progress terms, each in [0, 1] (the weights sum to 1, so -1 <= Phi <= 0):
 - reach = exp(-d / REACH_SCALE), d the distance from the hand's TCP to the goal object's grasp
-  point: its axis at `grasp_height` (the TCP is where a held object's axis sits,
+  point: its axis at `PUSH_HEIGHT` (the TCP is where a held object's axis sits,
   `herb.HAND_TCP_OFFSET`, so the palm is then beside the object);
 - grasp = min(fingers touching the goal, 2) / 4 + held / 2;
 - goal: lift tasks, held * min(lift / LIFT_HEIGHT, 1) (only a held object's lift counts: tilting
@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from clutter_gym.model.objects import ObjectSpec
-from clutter_gym.model.reachability import grasp_height
+from clutter_gym.model.reachability import PUSH_HEIGHT
 from clutter_gym.model.scene import Scene
 from clutter_gym.model.transforms import tilt_of_quaternion, yaw_of_quaternion
 from clutter_gym.model.world import Surface
@@ -138,7 +138,7 @@ class RetrievalTask:
         self.goal_start_z = float(sim.base_pose(self.goal)[0][2])
         self.goal_height = self.goal_start_z + LIFT_HEIGHT
         """z the goal object's base must reach (lift tasks)."""
-        self._grasp_offset = np.array([0.0, 0.0, grasp_height(specs[self.goal].height)])
+        self._grasp_offset = np.array([0.0, 0.0, PUSH_HEIGHT])
 
     def robot_strikes_surface(self) -> bool:
         return bool(self.sim.contacts(self.herb.name, self.surface_body))

@@ -23,7 +23,7 @@ from clutter_gym.model.collision import (
 )
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
-from clutter_gym.model.reachability import shipped_map
+from clutter_gym.model.reachability import HEIGHTS, shipped_map
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import Surface
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
@@ -38,6 +38,8 @@ POSE_KEY_DECIMALS = 9
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
+IKSolver = Callable[[np.ndarray, Free], np.ndarray | None]
+"""An IK solver: a configuration putting the TCP at a pose (4x4) that ``accept`` takes, or None."""
 
 
 class Arm:
@@ -49,19 +51,20 @@ class Arm:
         settings: PlannerSettings,
         stats: PlanStats,
         budget: Budget,
-        rng: np.random.Generator,
+        ik: IKSolver | None = None,
     ) -> None:
+        """``ik`` replaces the analytic IK (`bench plan` compares the solver it replaced)."""
         self.surface = surface
         self.settings = settings
         self.stats = stats
         self.budget = budget
-        self.rng = rng
         self.kinematics = ArmKinematics("right")
         self.robot = RobotCollision(self.kinematics, ArmGeometry())
         self.reach = shipped_map(surface.name)
         # The planner asks for the same poses again and again with other obstacles: each
         # pose's analytic IK solutions (seeded by the home pose) are computed once.
         self._solutions: dict[bytes, np.ndarray] = {}
+        self._ik = ik
 
     # -- collision ------------------------------------------------------------------------------
     def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> Free:
@@ -101,11 +104,26 @@ class Arm:
             self.stats.ik_skipped += 1
             return None
         with self.stats.timed("ik"):
+            if self._ik is not None:
+                return self._ik(target, accept)
             key = (np.round(target, POSE_KEY_DECIMALS) + 0.0).tobytes()  # + 0.0: no -0.0
             solutions = self._solutions.get(key)
             if solutions is None:
                 solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
             return self.kinematics.select(solutions, accept)
+
+    def push_heights(self, poses: Iterable[tuple[np.ndarray, float]]) -> list[float]:
+        """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
+        are pushed "as low as possible"), for a horizontal hand that must stand at these
+        (hand_base xy, heading) poses: the map's heights at which it rules none of them out.
+        Far out the forearm slopes down to the support and the lowest may be out of reach."""
+        poses = list(poses)
+        return [
+            height
+            for height in HEIGHTS
+            if self.reach is None
+            or all(self.reach.may_reach(xy, heading, height) is not False for xy, heading in poses)
+        ]
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""

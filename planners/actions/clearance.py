@@ -21,7 +21,7 @@ from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.context import PlanningContext
-from planners.push_simulation import Pusher, contacts
+from planners.push_simulation import Pusher, smallest_gap
 from planners.uncertainty import ObjectBelief
 
 OVERLAP = 2e-3
@@ -44,24 +44,28 @@ def _relevant(ctx: PlanningContext, avoid: Volume, z: float) -> list[tuple[str, 
     return found
 
 
-def _first_overlap(
-    pusher: Pusher, objects: list[tuple[str, Footprint, np.ndarray]], shift: float
-) -> str:
-    """The first object one of whose sample poses (in a frame along the hand's motion) the
-    hand's cross-section, ``shift`` along that frame's x, overlaps; or ""."""
-    x0, x1 = pusher.bounds[:2]  # the band already keeps to the hand's y range
+def _blockers(
+    pusher: Pusher, objects: list[tuple[str, Footprint, np.ndarray]], shifts: np.ndarray
+) -> list[str]:
+    """For each of the hand's poses, ``shifts`` (M, 2) from the origin of the objects' frame
+    (the hand turned as that frame), the first object by name one of whose sample poses its
+    cross-section overlaps, or "". All poses of one object are tested in one batch."""
+    x0, x1, y0, y1 = pusher.bounds
+    blockers = [""] * len(shifts)
     for name, footprint, local in objects:
         r = footprint.bounding_radius
-        x = local[:, 0] - shift
-        near = (x + r > x0) & (x - r < x1)
-        if not near.any():
+        x = local[None, :, 0] - shifts[:, None, 0]
+        y = local[None, :, 1] - shifts[:, None, 1]
+        near = (x + r > x0) & (x - r < x1) & (y + r > y0) & (y - r < y1)
+        near_shift, near_sample = np.nonzero(near)
+        if not len(near_shift):
             continue  # every sample's bounding circle is clear of the hand's bounding box
-        poses = local[near].copy()
-        poses[:, 0] -= shift
-        gaps, _, _ = contacts(footprint, pusher, poses)
-        if float(np.min(gaps)) < -OVERLAP:
-            return name
-    return ""
+        poses = local[near_sample].copy()
+        poses[:, :2] -= shifts[near_shift]
+        hit = smallest_gap(footprint, pusher, poses) < -OVERLAP
+        for k in np.unique(near_shift[hit]):
+            blockers[k] = blockers[k] or name
+    return blockers
 
 
 def _near_band(
@@ -70,11 +74,16 @@ def _near_band(
     """The samples of each relevant object, in ``frame``, whose bounding circle meets the band
     the hand's bounding box sweeps moving ``length`` along the frame's x."""
     x0, x1, y0, y1 = pusher.bounds
+    # The samples as the planner keeps them for this heading, moved to the frame's origin (and
+    # mirrored for a left-handed frame: a sweep with the hand's other side).
+    right_handed = Frame2D(frame.origin, frame.angle)
+    origin = np.array([*right_handed.to_frame(np.zeros((1, 3)))[0, :2], 0.0])
+    mirror = np.array([1.0, float(frame.handedness), float(frame.handedness)])
     objects = []
     for name, belief in _relevant(ctx, avoid, z):
         footprint = belief.spec.footprint
         r = footprint.bounding_radius
-        local = frame.to_frame(belief.samples)
+        local = (ctx.samples_facing(name, frame.angle) + origin) * mirror
         near = (
             (local[:, 1] + r > y0) & (local[:, 1] - r < y1) & (local[:, 0] + r > x0)
             & (local[:, 0] - r < x1 + length)
@@ -90,7 +99,24 @@ def overlapped(
     """The first object of ``avoid`` (by name) one of whose uncertainty samples the hand's
     cross-section, placed in ``frame`` with the TCP at height ``z``, overlaps; or ""."""
     with ctx.stats.timed("clearance"):
-        return _first_overlap(pusher, _near_band(ctx, pusher, frame, avoid, z, 0.0), 0.0)
+        objects = _near_band(ctx, pusher, frame, avoid, z, 0.0)
+        return _blockers(pusher, objects, np.zeros((1, 2)))[0]
+
+
+def stops_overlapping(
+    ctx: PlanningContext, pusher: Pusher, ends: np.ndarray, heading: float, avoid: Volume, z: float
+) -> list[str]:
+    """`overlapped` for many hand_base positions ``ends`` (M, 2) at one ``heading``: the
+    object each hand overlaps there, or "" (one batch per object: the push-grasp search asks
+    this for every lateral offset of a direction and aperture at once)."""
+    with ctx.stats.timed("clearance"):
+        objects = [
+            (name, belief.spec.footprint, ctx.samples_facing(name, heading))
+            for name, belief in _relevant(ctx, avoid, z)
+        ]
+        frame = Frame2D((0.0, 0.0), heading)
+        shifts = frame.to_frame(np.column_stack([ends, np.zeros(len(ends))]))[:, :2]
+        return _blockers(pusher, objects, shifts)
 
 
 def line_overlap(
@@ -123,12 +149,15 @@ def _line_overlap(
     objects = _near_band(ctx, pusher, frame, avoid, z, max(length, 0.0))
     if not objects:
         return ""
-    blocker = _first_overlap(pusher, objects, length)
+    # Where the hand stops first: most blocked candidates fail there, in one pose's test.
+    (blocker,) = _blockers(pusher, objects, np.array([[length, 0.0]]))
     if blocker:
         return f"the hand overlaps {blocker} where it stops"
     steps = max(1, math.ceil(abs(length) / SWEEP_STEP))
-    for t in np.linspace(0.0, 1.0, steps, endpoint=False):
-        blocker = _first_overlap(pusher, objects, float(t * length))
-        if blocker:
-            return f"the hand sweeps through {blocker} on its way in"
+    along = np.linspace(0.0, length, steps, endpoint=False)
+    blocker = next(
+        filter(None, _blockers(pusher, objects, np.column_stack([along, 0 * along]))), ""
+    )
+    if blocker:
+        return f"the hand sweeps through {blocker} on its way in"
     return ""

@@ -12,6 +12,7 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
+from clutter_gym.model.transforms import Frame2D
 from clutter_gym.model.world import Region, Surface
 from planners.actions.results import FailureLog
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
@@ -59,6 +60,7 @@ class PlanningContext:
         self._sums: dict[frozenset[str], Volume] = {}
         #: Sweep evolutions simulated so far, by object and sweep frame (`SweepEvolution`).
         self.sweeps: dict[tuple[Hashable, ...], SweepEvolution] = {}
+        self._facing: dict[tuple[str, float], np.ndarray] = {}
 
     def check_budget(self) -> None:
         self.budget.check()
@@ -70,6 +72,15 @@ class PlanningContext:
             b = self.beliefs[name]
             self._volumes[name] = Volume.of_object(name, b.spec, b.samples, self.surface.top_z)
         return self._volumes[name]
+
+    def samples_facing(self, name: str, heading: float) -> np.ndarray:
+        """U(name) in the frame at the world's origin whose x axis points along ``heading``
+        (cached): a hand moving along that heading tests its poses against these, shifted by
+        its own position, and the planner tries each heading with many offsets and apertures."""
+        key = (name, heading)
+        if key not in self._facing:
+            self._facing[key] = Frame2D((0.0, 0.0), heading).to_frame(self.beliefs[name].samples)
+        return self._facing[key]
 
     def objects_volume(self, names: Iterable[str]) -> Volume:
         """Sum of Volume(i, U(i)) over the named objects (the avoid volume), cached per set of

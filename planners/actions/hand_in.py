@@ -13,7 +13,7 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
-from clutter_gym.model.reachability import grasp_height, hand_pose
+from clutter_gym.model.reachability import PUSH_HEIGHT, hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.transforms import rotation_2d
 from planners.actions.arm import Arm, Free
@@ -58,26 +58,35 @@ def hand_in(
     profile: PushGraspProfile,
     evolve: Callable[[], np.ndarray],
 ) -> HandIn | Failure:
-    """The hand moves straight in at grasp height from ``line[0]`` to ``line[1]`` (hand_base
-    positions) while the object's samples go through ``evolve()`` (nu_o, computed only once
-    the arm's motion is known to be feasible)."""
+    """The hand moves straight in, as low as the arm can hold it (`Arm.push_heights`), from
+    ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
+    ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible)."""
     spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
-    z = ctx.surface.top_z + grasp_height(spec.height)
-    blocked = line_overlap(ctx, profile.pusher, line, heading, avoid, z)
+    heights = arm.push_heights(((start_xy, heading), (end_xy, heading)))
+    blocked = line_overlap(
+        ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
+    )
     if blocked:
         return Failure(name, action, blocked)
     hand = HandCommand(0.0, profile.closure)
     free = arm.free_check(avoid, hand)
-    q_end = arm.solve(hand_pose(end_xy, heading, z), free)
-    if q_end is None:
-        return Failure(name, action, "no collision-free IK solution where the hand stops")
-    back = arm.straight(q_end, hand_pose(start_xy, heading, z), free)
-    if back is None:
-        return Failure(name, action, "the straight push is out of reach or hits avoidVol")
-    push = Segment("push", back[::-1].copy(), hand)
-    if not arm.motion_free((push,), avoid):
-        return Failure(name, action, "the arm hits avoidVol during the push")
+    why = "no collision-free IK solution where the hand stops"
+    for height in heights or [PUSH_HEIGHT]:
+        z = ctx.surface.top_z + height
+        q_end = arm.solve(hand_pose(end_xy, heading, z), free)
+        if q_end is None:
+            continue
+        back = arm.straight(q_end, hand_pose(start_xy, heading, z), free)
+        if back is None:
+            why = "the straight push is out of reach or hits avoidVol"
+            continue
+        push = Segment("push", back[::-1].copy(), hand)
+        if arm.motion_free((push,), avoid):
+            break
+        why = "the arm hits avoidVol during the push"
+    else:
+        return Failure(name, action, why)
     nu = evolve()
     with ctx.stats.timed("volumes"):
         swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)

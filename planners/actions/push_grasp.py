@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
+from clutter_gym.model.reachability import PUSH_HEIGHT
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.arm import Arm
+from planners.actions.clearance import stops_overlapping
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
@@ -132,35 +135,59 @@ def _over_offsets(
 ) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
     """The push at this heading and aperture at the first lateral offset (`lateral_offsets`)
     that passes every check; the failures on the way are yielded. A failure at one offset does
-    not end the search: a hand shifted by a centimetre may clear a neighbour or find IK."""
+    not end the search: a hand shifted by a centimetre may clear a neighbour or find IK. The
+    capture and the hand's overlap where it stops, which rule out most offsets, are decided
+    for all offsets at once before any offset pays for IK."""
     belief = ctx.beliefs[name]
     region = ctx.push_region(belief.spec.footprint, aperture)
     offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
     if not len(offsets):
         yield Failure(name, action, MISSES_SAMPLES)
         return None
-    for offset in offsets:
+    with ctx.stats.timed("capture"):
+        pushes = [_plan_push(ctx, name, heading, aperture, float(o)) for o in offsets]
+    captured = [p for p in pushes if p is not None]
+    ends = np.array([p.end for p in captured]).reshape(-1, 2)
+    z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
+    pusher = push_grasp_profile(aperture).pusher
+    blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
+    for push in pushes:
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        outcome = _push_at(ctx, arm, name, avoid, action, heading, aperture, float(offset))
+        blocker = "" if push is None else next(blockers)
+        if push is None:
+            outcome: tuple[HandIn, dict[str, float]] | Failure = Failure(
+                name, action, MISSES_SAMPLES
+            )
+        elif blocker:
+            outcome = Failure(name, action, f"the hand overlaps {blocker} where it stops")
+        else:
+            outcome = _push_at(ctx, arm, name, avoid, action, push)
         if not isinstance(outcome, Failure):
             return outcome
         yield outcome
     return None
 
 
-def _push_at(
-    ctx: PlanningContext,
-    arm: Arm,
-    name: str,
-    avoid: Volume,
-    action: str,
-    heading: float,
-    aperture: float,
-    offset: float,
-) -> tuple[HandIn, dict[str, float]] | Failure:
+@dataclass(frozen=True)
+class _Push:
+    """A push-grasp's geometry once the capture region holds every sample: hand_base from
+    ``start`` to ``end`` along ``heading``, the samples in the hand's frame at the start."""
+
+    heading: float
+    aperture: float
+    offset: float
+    start: np.ndarray
+    end: np.ndarray
+    distance: float
+    in_hand: np.ndarray
+
+
+def _plan_push(
+    ctx: PlanningContext, name: str, heading: float, aperture: float, offset: float
+) -> _Push | None:
     """The hand pushing in along ``heading``, offset sideways, until the capture region says
-    every sample is in the hand; the motion, nu_o and the parameters, or why not."""
+    every sample is in the hand; None when it misses some."""
     belief = ctx.beliefs[name]
     spec = belief.spec
     region = ctx.push_region(spec.footprint, aperture)
@@ -172,30 +199,38 @@ def _push_at(
     x_front = profile.pusher.bounds[1]
     back_off = near_edge(spec.footprint, local) - x_front - START_CLEARANCE
     start_xy = centre + back_off * v
-    frame = Frame2D((float(start_xy[0]), float(start_xy[1])), heading)
-    in_hand = frame.to_frame(belief.samples)
-    with ctx.stats.timed("capture"):
-        inside, need = region.query(in_hand)
+    in_hand = Frame2D((float(start_xy[0]), float(start_xy[1])), heading).to_frame(belief.samples)
+    inside, need = region.query(in_hand)
     if not inside.all():
-        return Failure(name, action, MISSES_SAMPLES)
+        return None
     distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
+    return _Push(heading, aperture, offset, start_xy, start_xy + distance * v, distance, in_hand)
+
+
+def _push_at(
+    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, action: str, push: _Push
+) -> tuple[HandIn, dict[str, float]] | Failure:
+    """The push's motion, nu_o and parameters, or why the arm cannot make it."""
+    region = ctx.push_region(ctx.beliefs[name].spec.footprint, push.aperture)
+    frame = Frame2D((float(push.start[0]), float(push.start[1])), push.heading)
 
     def evolve() -> np.ndarray:
-        stages = max(1, math.ceil(distance / NU_SPACING))
+        stages = max(1, math.ceil(push.distance / NU_SPACING))
         with ctx.stats.timed("nu"):
-            advances = np.linspace(0.0, distance, stages + 1)
+            advances = np.linspace(0.0, push.distance, stages + 1)
             chosen = extreme_parameters(region.mus, region.cs)
-            nu_hand = region.evolve(in_hand, distance, stages, NU_STEP, chosen)
+            nu_hand = region.evolve(push.in_hand, push.distance, stages, NU_STEP, chosen)
             return frame.moving_to_world(nu_hand, advances)
 
     details = {
-        "heading_deg": math.degrees(heading),
-        "aperture_m": aperture,
-        "offset_m": offset,
-        "push_m": distance,
+        "heading_deg": math.degrees(push.heading),
+        "aperture_m": push.aperture,
+        "offset_m": push.offset,
+        "push_m": push.distance,
     }
-    end_xy = start_xy + distance * v
-    moved = hand_in(ctx, arm, name, action, avoid, (start_xy, end_xy), heading, profile, evolve)
+    profile = push_grasp_profile(push.aperture)
+    line = (push.start, push.end)
+    moved = hand_in(ctx, arm, name, action, avoid, line, push.heading, profile, evolve)
     if isinstance(moved, Failure):
         return moved
     return moved, details

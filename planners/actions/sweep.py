@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
-from clutter_gym.model.reachability import grasp_height, hand_pose
+from clutter_gym.model.reachability import PUSH_HEIGHT, hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.arm import Arm, Free
@@ -109,13 +109,23 @@ def _sweep_at(
         break
     if placement is None:
         return
-    frame, in_frame = placement
+    frame, in_frame, plan = placement  # the plan at the placement's height
     with ctx.stats.timed("nu"):
         swept = _simulate(ctx, name, goal, plan.region, frame, in_frame)
     if swept is None:
         yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
         return
-    yield _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, *swept)
+    distance, nu = swept
+    start_xy = np.asarray(frame.origin)
+    end_xy = start_xy + distance * frame.x_axis
+    # At the placement's height, or higher where the straight line is out of reach there.
+    heights = [z for z in _heights(ctx, arm, plan, start_xy, end_xy) if z >= plan.z]
+    for z in heights or [plan.z]:
+        result = _sweep_motion(ctx, arm, name, avoid, replace(plan, z=z), frame, hand, free,
+                               distance, nu)  # fmt: skip
+        if not isinstance(result, Failure):
+            break
+    yield result
 
 
 def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) -> _Sweep:
@@ -131,7 +141,7 @@ def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) 
         angle=angle,
         handedness=handedness,
         approach=angle + handedness * math.pi / 2,
-        z=ctx.surface.top_z + grasp_height(spec.height),
+        z=ctx.surface.top_z + PUSH_HEIGHT,
         centre=centre,
         local=local,
         x0=near_edge(spec.footprint, local) - x_front - START_CLEARANCE,
@@ -171,9 +181,10 @@ def _placement(
     guess: float,
     avoid: Volume,
     free: Free,
-) -> tuple[Frame2D, np.ndarray] | Failure:
+) -> tuple[Frame2D, np.ndarray, _Sweep] | Failure:
     """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
-    capture region holds every sample and the arm reaches the start and the guessed end."""
+    capture region holds every sample and the arm reaches the start and the guessed end; the
+    sweep at the lowest height the arm holds the hand there (`Arm.push_height`)."""
     frame, in_frame = _frame_at(ctx, name, plan, fraction)
     with ctx.stats.timed("capture"):
         captured = bool(plan.region.query(in_frame, float(guess))[0].all())
@@ -185,12 +196,24 @@ def _placement(
         return Failure(name, ACTION, f"the hand overlaps {blocker} where the sweep starts")
     # Reachable and clear where it starts and where the guess ends, before paying for the
     # simulated evolution; another placement along the hand may clear what this hits.
-    if arm.solve(hand_pose(start_xy, plan.approach, plan.z), free) is None:
-        return Failure(name, ACTION, "no collision-free IK solution at the start of the sweep")
     end_xy = start_xy + guess * frame.x_axis
-    if arm.solve(hand_pose(end_xy, plan.approach, plan.z), free) is None:
-        return Failure(name, ACTION, "no collision-free IK solution at the end of the sweep")
-    return frame, in_frame
+    why = "no collision-free IK solution at the start of the sweep"
+    for z in _heights(ctx, arm, plan, start_xy, end_xy):
+        if arm.solve(hand_pose(start_xy, plan.approach, z), free) is None:
+            continue
+        if arm.solve(hand_pose(end_xy, plan.approach, z), free) is not None:
+            return frame, in_frame, replace(plan, z=z)
+        why = "no collision-free IK solution at the end of the sweep"
+    return Failure(name, ACTION, why)
+
+
+def _heights(
+    ctx: PlanningContext, arm: Arm, plan: _Sweep, start_xy: np.ndarray, end_xy: np.ndarray
+) -> list[float]:
+    """TCP heights (world z) for a sweep from ``start_xy`` to ``end_xy``, lowest first, at
+    which the map rules neither end out (`Arm.push_heights`)."""
+    poses = ((start_xy, plan.approach), (end_xy, plan.approach))
+    return [ctx.surface.top_z + h for h in arm.push_heights(poses) or [PUSH_HEIGHT]]
 
 
 def _frame_at(
@@ -221,6 +244,10 @@ def sweep_with(
         return Failure(name, ACTION, "tips over when pushed")
     plan = _plan_sweep(ctx, name, *direction)
     frame, _ = _frame_at(ctx, name, plan, fraction)
+    start_xy = np.asarray(frame.origin)
+    plan = replace(
+        plan, z=_heights(ctx, arm, plan, start_xy, start_xy + distance * frame.x_axis)[0]
+    )
     samples = ctx.beliefs[name].samples
     nu = np.stack([samples, translated(samples, distance * frame.x_axis)])
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
