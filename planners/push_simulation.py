@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import rotation_2d
@@ -47,6 +48,25 @@ class ConvexPolygon:
         cross = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
         if np.any(cross <= 0):
             raise ValueError("ConvexPolygon vertices must be strictly convex and counter-clockwise")
+
+
+def swept(pusher: Pusher, length: float) -> Pusher:
+    """The region a pusher covers moving ``length`` (> 0) along +x, as a pusher: each convex
+    polygon becomes the convex hull of it and its translate, each disc a capsule (a rectangle
+    and the two end discs). One overlap test against it replaces tests along the motion."""
+    shift = np.array([length, 0.0])
+    polygons = []
+    for p in pusher.polygons:
+        v = np.asarray(p.vertices, float)
+        both = np.vstack([v, v + shift])
+        hull = both[ConvexHull(both).vertices]  # counter-clockwise in 2D
+        polygons.append(ConvexPolygon(tuple((float(x), float(y)) for x, y in hull)))
+    circles = []
+    for c in pusher.circles:
+        start = np.asarray(c.center, float)
+        polygons.append(rectangle(start, start + shift, c.radius))
+        circles += [c, Circle((float(start[0] + length), float(start[1])), c.radius)]
+    return Pusher(tuple(polygons), tuple(circles))
 
 
 def rectangle(p0: np.ndarray, p1: np.ndarray, half_width: float) -> ConvexPolygon:

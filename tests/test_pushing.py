@@ -9,9 +9,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clutter_gym.model.objects import Footprint
+from clutter_gym.model.objects import OBJECTS, Footprint
 from planners.hand2d import push_grasp_profile
-from planners.push_simulation import ConvexPolygon, Pusher, PushState, simulate_push
+from planners.push_simulation import (
+    ConvexPolygon,
+    Pusher,
+    PushState,
+    contacts,
+    simulate_push,
+    smallest_gap,
+    swept,
+)
 from planners.pushing import (
     STICK,
     DiscPressure,
@@ -169,3 +177,28 @@ def test_box_on_flat_pusher_translates() -> None:
     box = Footprint("box", half_extents=(0.05, 0.03))
     res = simulate_push(box, wall, np.array([[0.06, 0.01, 0.0]]), 0.5, 0.03, 0.2)
     np.testing.assert_allclose(res.poses[0], [0.05, 0.01, 0.0], atol=2e-3)
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])
+def test_the_swept_hand_is_the_union_of_its_poses_along_the_push(kind: str) -> None:
+    """One overlap test against `swept` says what tests of the hand at every pose along the
+    push say: an overlap exactly where a densely spaced pose overlaps, and the same distance
+    from the hand where none does (to the spacing of the poses)."""
+    footprint = OBJECTS[kind].footprint
+    hand = push_grasp_profile(0.15).pusher
+    length = 0.3
+    rng = np.random.default_rng(4)
+    poses = np.column_stack(
+        [rng.uniform(-0.1, 0.6, 300), rng.uniform(-0.25, 0.25, 300), rng.uniform(-3, 3, 300)]
+    )
+    shifts = np.linspace(0.0, length, 601)
+    dense = np.min([smallest_gap(footprint, hand, poses - [s, 0.0, 0.0]) for s in shifts], axis=0)
+    once = smallest_gap(footprint, swept(hand, length), poses)
+    spacing = shifts[1] - shifts[0]
+    assert np.all(once[dense < 0.0] < 0.0)  # every overlap along the push is found
+    assert np.all(dense[once < 0.0] < spacing)  # and nothing clear of every pose
+    clear = dense > 0.0
+    assert clear.sum() > 50 and np.allclose(once[clear], dense[clear], atol=spacing / 2)
+    assert np.allclose(
+        smallest_gap(footprint, hand, poses), contacts(footprint, hand, poses)[0].min(1)
+    )

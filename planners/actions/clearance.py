@@ -13,6 +13,7 @@ and leaves the rest to IK's 3D checks.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -21,13 +22,11 @@ from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.context import PlanningContext
-from planners.push_simulation import Pusher, smallest_gap
+from planners.push_simulation import Pusher, smallest_gap, swept
 from planners.uncertainty import ObjectBelief
 
 OVERLAP = 2e-3
 """m of planar overlap that counts: the 3D check pads nothing for objects, so 2 mm is real."""
-SWEEP_STEP = 0.02
-"""m between the hand poses tested along a straight push (finger and palm are wider)."""
 
 
 def _relevant(ctx: PlanningContext, avoid: Volume, z: float) -> list[tuple[str, ObjectBelief]]:
@@ -135,6 +134,20 @@ def line_overlap(
         return _line_overlap(ctx, pusher, line, heading, avoid, z)
 
 
+SWEPT_RESOLUTION = 0.002
+"""m: a push's length rounded up to this for its swept hand (cached: building one costs more
+than testing against it); the same as `OVERLAP`, so the test stays sound."""
+
+
+def _swept(pusher: Pusher, length: float) -> Pusher:
+    return _swept_steps(pusher, math.ceil(length / SWEPT_RESOLUTION - 1e-9))
+
+
+@functools.lru_cache(maxsize=4096)
+def _swept_steps(pusher: Pusher, steps: int) -> Pusher:
+    return swept(pusher, steps * SWEPT_RESOLUTION)
+
+
 def _line_overlap(
     ctx: PlanningContext,
     pusher: Pusher,
@@ -153,11 +166,9 @@ def _line_overlap(
     (blocker,) = _blockers(pusher, objects, np.array([[length, 0.0]]))
     if blocker:
         return f"the hand overlaps {blocker} where it stops"
-    steps = max(1, math.ceil(abs(length) / SWEEP_STEP))
-    along = np.linspace(0.0, length, steps, endpoint=False)
-    blocker = next(
-        filter(None, _blockers(pusher, objects, np.column_stack([along, 0 * along]))), ""
-    )
+    if length <= 0.0:
+        return ""
+    (blocker,) = _blockers(_swept(pusher, length), objects, np.zeros((1, 2)))
     if blocker:
         return f"the hand sweeps through {blocker} on its way in"
     return ""

@@ -31,6 +31,8 @@ from planners.goto import upright_hand
 from planners.hand2d import PushGraspProfile
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
+CLOSING_TURNS = 6
+"""Orientations over a half turn at which a box may stand while the fingers close on it."""
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 
@@ -111,16 +113,45 @@ def pick_up_or_release(
     if not goal.accepts(ctx, name, nu[-1], held):
         return Failure(name, action, f"the object does not end {goal.describe()}")
     if held:
+        turning = closing(ctx, name, nu[-1])
+        if turned_into(ctx, name, turning, avoid):
+            return Failure(name, action, TURNS_INTO_AVOID)
         finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
         if finish is None:
             return Failure(name, action, "no collision-free lift or pull out after the grasp")
-        nu = np.concatenate([nu, carried_poses])
+        nu = np.concatenate([nu, turning, carried_poses])
     else:
         finish = release(ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z,
                          nu[-1], avoid)  # fmt: skip
         if finish is None:
             return Failure(name, action, "no collision-free retreat after the push")
     return ActionResult(action, name, Trajectory((moved.push, *finish)), nu, held, details)
+
+
+TURNS_INTO_AVOID = "the object turning in the closing hand sweeps into avoidVol"
+
+
+def closing(ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
+    """Where the object may stand while the fingers close on it, stages (S, M, 3) around its
+    poses (M, 3) where the hand stopped. A cylinder stays. A box turns about its centre until a
+    face lies against the fingers, either way and by up to a quarter turn (in simulation a
+    poptart box across the hand turned 80 deg and shoved a can 12 cm), so it may stand at any
+    orientation: `CLOSING_TURNS` of them over its half-turn symmetry."""
+    if ctx.beliefs[name].spec.footprint.shape != "box":
+        return np.asarray(final, dtype=float)[None]
+    turns = np.arange(CLOSING_TURNS) * (np.pi / CLOSING_TURNS)
+    turned = np.repeat(np.asarray(final, dtype=float)[None], CLOSING_TURNS, axis=0)
+    turned[..., 2] += turns[:, None]
+    return turned
+
+
+def turned_into(ctx: PlanningContext, name: str, turning: np.ndarray, avoid: Volume) -> bool:
+    """Whether the object at the `closing` stages overlaps avoidVol."""
+    with ctx.stats.timed("volumes"):
+        spec = ctx.beliefs[name].spec
+        return Volume.of_object(name, spec, turning.reshape(-1, 3), ctx.surface.top_z).intersects(
+            avoid
+        )
 
 
 def _retrieve(

@@ -6,6 +6,7 @@ the action's volume."""
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
 from planners.actions.grasp_geometry import GRASP_CLOSURE, translated
-from planners.actions.hand_in import HandIn, release
+from planners.actions.hand_in import TURNS_INTO_AVOID, HandIn, closing, release, turned_into
 from planners.actions.results import ActionResult, Failure
 
 ACTION = "pick-and-place"
@@ -35,16 +36,39 @@ def place(
     moved: HandIn,
     details: dict[str, float],
 ) -> ActionResult | Failure:
-    """Carry the grasped obstacle to a placement in G; nu_o is (U(o), where it is put down)."""
-    spec = ctx.beliefs[name].spec
-    q_grasp, grasp_xy, heading, z, in_hand = (
-        moved.q_end, moved.end_xy, moved.heading, moved.z, moved.nu[-1]
-    )  # fmt: skip
+    """Carry the grasped obstacle to a placement in G; nu_o is the push, the object turning
+    while the fingers close (`closing`: a box may end up at any orientation) and where it is
+    put down, every stage with one pose per sample, parameter set and turn."""
+    turning = closing(ctx, name, moved.nu[-1])
+    if turned_into(ctx, name, turning, avoid):
+        return Failure(name, ACTION, TURNS_INTO_AVOID)
+    in_hand = turning.reshape(-1, 3)  # every pose the held object may have
     closed = HandCommand(0.0, GRASP_CLOSURE)
     free = arm.free_check(avoid, closed)
-    lifted = arm.straight(q_grasp, hand_pose(grasp_xy, heading, z + CARRY_LIFT), free)
+    lift_to = hand_pose(moved.end_xy, moved.heading, moved.z + CARRY_LIFT)
+    lifted = arm.straight(moved.q_end, lift_to, free)
     if lifted is None:
         return Failure(name, ACTION, "no collision-free lift after the grasp")
+    for shift, placed in _free_placements(ctx, name, goal, in_hand):
+        ctx.check_budget()
+        carried = _carry(ctx, arm, name, avoid, moved, lifted, in_hand, shift)
+        if carried is None:
+            continue
+        segments, volume = carried
+        grasp = Segment("close", moved.q_end[None].copy(), closed)
+        pushed = np.tile(moved.nu, (1, len(turning), 1))
+        nu = np.concatenate([pushed, in_hand[None], placed[None]])
+        trajectory = Trajectory((moved.push, grasp, Segment("lift", lifted, closed), *segments))
+        return ActionResult(ACTION, name, trajectory, nu, False, details, volume)
+    return Failure(name, ACTION, "no reachable placement out of the NGR")
+
+
+def _free_placements(
+    ctx: PlanningContext, name: str, goal: Goal, in_hand: np.ndarray
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """At most `PLACEMENT_TRIES` (shift, placed poses) in G, nearest first, where the object
+    stands clear of every other object."""
+    spec = ctx.beliefs[name].spec
     others = ctx.objects_volume(set(ctx.beliefs) - {name})
     tried = 0
     for shift in _placements(ctx, in_hand[0, :2]):
@@ -55,32 +79,41 @@ def place(
             continue
         tried += 1
         if tried > PLACEMENT_TRIES:
-            break
-        ctx.check_budget()
-        place_xy = grasp_xy + shift
-        carry = arm.straight(lifted[-1], hand_pose(place_xy, heading, z + CARRY_LIFT), free)
-        if carry is None:
-            continue
-        lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z), free)
-        if lower is None:
-            continue
-        carried = _carried_volume(ctx, name, in_hand, shift)
-        if carried.intersects(avoid):
-            continue
-        finish = release(ctx, arm, name, lower[-1], place_xy, heading, z, placed, avoid)
-        if finish is None:
-            continue
-        segments = (
-            moved.push,
-            Segment("close", q_grasp[None].copy(), closed),
-            Segment("lift", lifted, closed),
-            Segment("carry", carry, closed),
-            Segment("lower", lower, closed),
-            *finish,
-        )
-        nu = np.stack([moved.nu[0], placed])
-        return ActionResult(ACTION, name, Trajectory(segments), nu, False, details, carried)
-    return Failure(name, ACTION, "no reachable placement out of the NGR")
+            return
+        yield shift, placed
+
+
+def _carry(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    moved: HandIn,
+    lifted: np.ndarray,
+    in_hand: np.ndarray,
+    shift: np.ndarray,
+) -> tuple[tuple[Segment, ...], Volume] | None:
+    """Carry, lower, release and back away at one placement; the segments and the carried
+    object's volume, or None if the arm cannot."""
+    closed = HandCommand(0.0, GRASP_CLOSURE)
+    free = arm.free_check(avoid, closed)
+    place_xy = moved.end_xy + shift
+    heading, z = moved.heading, moved.z
+    carry = arm.straight(lifted[-1], hand_pose(place_xy, heading, z + CARRY_LIFT), free)
+    if carry is None:
+        return None
+    lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z), free)
+    if lower is None:
+        return None
+    carried = _carried_volume(ctx, name, in_hand, shift)
+    if carried.intersects(avoid):
+        return None
+    placed = translated(in_hand, shift)
+    finish = release(ctx, arm, name, lower[-1], place_xy, heading, z, placed, avoid)
+    if finish is None:
+        return None
+    segments = (Segment("carry", carry, closed), Segment("lower", lower, closed), *finish)
+    return segments, carried
 
 
 def _placements(ctx: PlanningContext, centre: np.ndarray) -> list[np.ndarray]:
