@@ -14,6 +14,10 @@ from planners.actions.context import PlanningContext
 class Goal(Protocol):
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool: ...
 
+    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
+        """A quick sufficient test of `accepts` for an object left standing at ``final``."""
+        ...
+
     def describe(self) -> str: ...
 
 
@@ -23,6 +27,9 @@ class Retrieve:
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
         return held
+
+    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
+        return False
 
     def describe(self) -> str:
         return "in the hand"
@@ -34,6 +41,9 @@ class Anywhere:
     (`planners.actions.primitives`), whose outcome physics decides."""
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
+        return True
+
+    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         return True
 
     def describe(self) -> str:

@@ -67,20 +67,38 @@ def _free_placements(
     ctx: PlanningContext, name: str, goal: Goal, in_hand: np.ndarray
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """At most `PLACEMENT_TRIES` (shift, placed poses) in G, nearest first, where the object
-    stands clear of every other object."""
-    spec = ctx.beliefs[name].spec
-    others = ctx.objects_volume(set(ctx.beliefs) - {name})
+    stands clear of every other object. Placements are plentiful and the object is held at
+    many poses, so G is decided by its quick sufficient test (bounding squares clear of the
+    NGR) and the other objects by bounding circles before any exact geometry."""
+    others = sorted(set(ctx.beliefs) - {name})
     tried = 0
     for shift in _placements(ctx, in_hand[0, :2]):
         placed = translated(in_hand, shift)
-        if not goal.accepts(ctx, name, placed, False):
-            continue
-        if Volume.of_object(name, spec, placed, ctx.surface.top_z).intersects(others):
+        if not goal.clearly_accepts(ctx, name, placed) or _meets_others(ctx, name, placed, others):
             continue
         tried += 1
         if tried > PLACEMENT_TRIES:
             return
         yield shift, placed
+
+
+def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: list[str]) -> bool:
+    """Whether the object at any of ``placed`` overlaps a sample of another object: bounding
+    circles first, the exact shapes only where those meet."""
+    radius = ctx.beliefs[name].spec.footprint.bounding_radius
+    near = [
+        o
+        for o in others
+        if (
+            np.linalg.norm(placed[:, None, :2] - ctx.beliefs[o].samples[None, :, :2], axis=-1)
+            < radius + ctx.beliefs[o].spec.footprint.bounding_radius
+        ).any()
+    ]
+    if not near:
+        return False
+    spec = ctx.beliefs[name].spec
+    volume = Volume.of_object(name, spec, placed, ctx.surface.top_z)
+    return volume.intersects(ctx.objects_volume(near))
 
 
 def _carry(
