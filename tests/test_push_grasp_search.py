@@ -10,7 +10,9 @@ import pytest
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import OBJECTS, get_object
+from clutter_gym.model.reachability import HEIGHTS, PUSH_HEIGHT
 from clutter_gym.model.world import TABLE
+from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
 from planners.actions.push_grasp import aperture_order, lateral_offsets
@@ -98,3 +100,17 @@ def test_a_sweep_is_simulated_once_for_every_goal(monkeypatch: pytest.MonkeyPatc
     assert farther[0] > first[0] and farther[0] == fresh[0]
     assert np.allclose(farther[1], fresh[1])
     assert len(ctx.sweeps) == 1
+
+
+def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
+    """§2.2.1 pushes "as low as possible": the push height first, the map's next height only
+    where the map rules the lowest out (close in front of the shoulder, the forearm meets the
+    table), and every height the map allows in the open workspace, lowest first."""
+    ctx = _box_context()
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    near_shoulder = (np.array([0.44, -0.11]), math.radians(30.0))
+    assert arm.reach is not None and arm.reach.may_reach(*near_shoulder, PUSH_HEIGHT) is False
+    assert arm.push_heights([near_shoulder]) == [HEIGHTS[1]]
+    in_workspace = (np.array([0.70, -0.20]), 0.0)
+    assert arm.push_heights([in_workspace]) == [PUSH_HEIGHT, HEIGHTS[1]]
+    assert arm.push_heights([in_workspace, near_shoulder]) == [HEIGHTS[1]]
