@@ -10,12 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from clutter_gym.model.objects import OBJECTS, Footprint
-from planners.hand2d import push_grasp_profile
+from planners.hand2d import push_grasp_profile, sweep_profile
 from planners.push_simulation import (
     ConvexPolygon,
     Pusher,
     PushState,
     contacts,
+    overlaps,
     simulate_push,
     smallest_gap,
     swept,
@@ -202,3 +203,25 @@ def test_the_swept_hand_is_the_union_of_its_poses_along_the_push(kind: str) -> N
     assert np.allclose(
         smallest_gap(footprint, hand, poses), contacts(footprint, hand, poses)[0].min(1)
     )
+
+
+@pytest.mark.parametrize("kind", ["large_box", "poptart_box", "soda_can"])
+@pytest.mark.parametrize("hand", ["push-grasp", "swept", "sweep"])
+def test_overlap_test_agrees_with_the_smallest_gap(kind: str, hand: str) -> None:
+    """The planner's cheap overlap test says exactly what the gap computation says, at every
+    depth, for the hand's cross-sections it is used with."""
+    footprint = OBJECTS[kind].footprint
+    pusher = {
+        "push-grasp": push_grasp_profile(0.235).pusher,
+        "swept": swept(push_grasp_profile(0.15).pusher, 0.2),
+        "sweep": sweep_profile().pusher,
+    }[hand]
+    rng = np.random.default_rng(11)
+    poses = np.column_stack(
+        [rng.uniform(-0.3, 0.5, 4000), rng.uniform(-0.3, 0.3, 4000), rng.uniform(-3, 3, 4000)]
+    )
+    gap = smallest_gap(footprint, pusher, poses)
+    for depth in (1e-4, 2e-3, 0.02):
+        found = overlaps(footprint, pusher, poses, depth)
+        assert found.any() and not found.all()
+        np.testing.assert_array_equal(found, gap < -depth)

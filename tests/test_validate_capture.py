@@ -152,6 +152,30 @@ def test_summary_counts_failures_inside_and_tightness() -> None:
     assert summary["failures_inside"] == 0 and summary["tightness"] == pytest.approx(0.5)
 
 
+def test_failures_in_the_planners_push_margin_are_counted_apart() -> None:
+    trials = [
+        vc.Trial(0, 0.0, (0.2, 0.0, 0.0), True, "success"),
+        vc.Trial(1, 0.0, (0.42, 0.0, 0.0), False, "failure: object toppled", at_edge=True),
+        vc.Trial(2, 0.0, (0.41, 0.0, 0.0), False, "success", at_edge=True),
+        vc.Trial(3, 0.0, (0.5, 0.0, 0.0), False, "failure: not held"),
+    ]
+    summary = vc.summarize(trials)
+    assert summary["failures_inside"] == 0 and summary["failures_at_edge"] == 1
+    assert summary["tightness"] == pytest.approx(0.5)
+
+
+def test_push_grasp_validation_predicts_as_the_planner_pushes() -> None:
+    """A pose is predicted inside only if the region's push plus the planner's margin fits."""
+    spec = vc.get_object("soda_can")
+    region, poses, _, _ = vc._jobs(spec, "push-grasp", 250, (0.0,), None)
+    predicted, edge = vc.predictions(region, poses)
+    need = region.query(poses)[1]
+    inside = region.contains(poses, vc.DISTANCE)
+    assert edge.any() and not (predicted & edge).any() and ((predicted | edge) == inside).all()
+    assert (need[predicted] <= vc.DISTANCE - vc.PUSH_MARGIN).all()
+    assert (need[edge] > vc.DISTANCE - vc.PUSH_MARGIN).all()
+
+
 def test_sweep_summaries_count_each_side() -> None:
     trials = [
         vc.Trial(0, 0.0, (0.2, 0.0, 0.0), True, "success", 1),

@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
 import trimesh
 
 from clutter_gym.model.shapes import Shape
@@ -66,13 +67,19 @@ class Footprint:
 
     def aabb(self, pose: Pose) -> tuple[float, float, float, float]:
         """Exact world axis-aligned bounds ``(x_min, x_max, y_min, y_max)`` at ``pose``."""
+        x0, x1, y0, y1 = self.aabbs(np.asarray([pose], dtype=float))[0]
+        return float(x0), float(x1), float(y0), float(y1)
+
+    def aabbs(self, poses: np.ndarray) -> np.ndarray:
+        """`aabb` of many poses (N, 3) at once: (N, 4)."""
         if self.shape == "circle":
-            ex = ey = self.radius
+            ex = ey = np.full(len(poses), self.radius)
         else:
-            c, s = abs(math.cos(pose[2])), abs(math.sin(pose[2]))
+            c, s = np.abs(np.cos(poses[:, 2])), np.abs(np.sin(poses[:, 2]))
             hx, hy = self.half_extents
             ex, ey = c * hx + s * hy, s * hx + c * hy
-        return pose[0] - ex, pose[0] + ex, pose[1] - ey, pose[1] + ey
+        x, y = poses[:, 0], poses[:, 1]
+        return np.column_stack([x - ex, x + ex, y - ey, y + ey])
 
 
 def _box_signed_distance(box: Footprint, pose: Pose, point: tuple[float, float]) -> float:

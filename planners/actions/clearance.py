@@ -22,7 +22,7 @@ from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.context import PlanningContext
-from planners.push_simulation import Pusher, smallest_gap, swept
+from planners.push_simulation import Pusher, overlaps, swept
 from planners.uncertainty import ObjectBelief
 
 OVERLAP = 2e-3
@@ -61,7 +61,7 @@ def _blockers(
             continue  # every sample's bounding circle is clear of the hand's bounding box
         poses = local[near_sample].copy()
         poses[:, :2] -= shifts[near_shift]
-        hit = smallest_gap(footprint, pusher, poses) < -OVERLAP
+        hit = overlaps(footprint, pusher, poses, OVERLAP)
         for k in np.unique(near_shift[hit]):
             blockers[k] = blockers[k] or name
     return blockers

@@ -75,17 +75,14 @@ class AwayFrom:
         return not placed.intersects(self.ngr)
 
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
-        """A quick sufficient test: stable, and every pose's bounding square clears the NGR
-        in the top-view map (no exact geometry)."""
+        """A quick sufficient test: stable, and every pose's axis-aligned bounds clear the
+        NGR in the top-view map (no exact geometry)."""
         with ctx.stats.timed("goal"):
             return ctx.stays_stable(name, final) and not self._near(ctx, name, final).any()
 
     def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
         spec = ctx.beliefs[name].spec
-        r = spec.footprint.bounding_radius
-        boxes = np.column_stack(
-            [final[:, 0] - r, final[:, 0] + r, final[:, 1] - r, final[:, 1] + r]
-        )
+        boxes = spec.footprint.aabbs(final)
         return self.ngr.lowest_over(boxes) <= ctx.surface.top_z + spec.height
 
     def describe(self) -> str:

@@ -68,8 +68,8 @@ def _free_placements(
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """At most `PLACEMENT_TRIES` (shift, placed poses) in G, nearest first, where the object
     stands clear of every other object. Placements are plentiful and the object is held at
-    many poses, so G is decided by its quick sufficient test (bounding squares clear of the
-    NGR) and the other objects by bounding circles before any exact geometry."""
+    many poses, so G is decided by its quick sufficient test (axis-aligned bounds clear of
+    the NGR) and the other objects by bounding circles before any exact geometry."""
     others = sorted(set(ctx.beliefs) - {name})
     tried = 0
     for shift in _placements(ctx, in_hand[0, :2]):

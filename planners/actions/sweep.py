@@ -152,8 +152,8 @@ def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) 
 def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
     """A rigid translation along the sweep is a cheap first guess of how far to sweep (the
     simulated evolution decides); it does not depend on where along the hand. The top-view
-    bounding-square test is tried first; when no distance passes it (a box's square is
-    pessimistic next to the NGR), the exact test decides."""
+    test of the axis-aligned bounds is tried first; when no distance passes it (a turned box's
+    bounds are pessimistic next to the NGR), the exact test decides."""
     samples = ctx.beliefs[name].samples
     direction = plan.frame.x_axis
     gap = START_CLEARANCE
