@@ -29,6 +29,7 @@ from agents.validate_capture import resolve_kind
 from clutter_gym.model.files import atomic_write_bytes
 from clutter_gym.model.noise import NOISE_LEVELS
 from clutter_gym.model.objects import Footprint, get_object
+from planners.actions.push_grasp import PUSH_MARGIN
 from planners.capture import push_grasp_region, sweep_region
 from planners.hand2d import default_aperture, push_grasp_profile, sweep_profile
 from planners.push_simulation import Pusher
@@ -49,7 +50,7 @@ class _View:
     y_label: str
 
 
-def _view(kind: str, action: str) -> _View:
+def _view(kind: str, action: str, aperture: float | None = None) -> _View:
     footprint = get_object(kind).footprint
     if action == "sweep":
         swept = sweep_region(footprint)
@@ -64,7 +65,7 @@ def _view(kind: str, action: str) -> _View:
             "x along the sweep [m]",
             "y along the approach [m]",
         )
-    region = push_grasp_region(footprint, default_aperture(footprint))
+    region = push_grasp_region(footprint, aperture or default_aperture(footprint))
     return _View(
         region.contains,
         region.aperture,
@@ -124,12 +125,14 @@ def capture_figure(
     action: str = "push-grasp",
 ) -> None:
     """(a) nested regions, (b) sigma3 samples in a region, (c) the physical validation when
-    ``validation`` (a checked `validate-capture` report of ``action``) is given."""
+    ``validation`` (a checked `validate-capture` report of ``action``) is given; a push-grasp
+    region at the validation's aperture, else at `default_aperture`."""
     kind = resolve_kind(name, action)
     if validation is not None and validation["object"] != kind:
         raise ValueError(f"--validation: the report is of {validation['object']}, not {kind}")
     spec = get_object(kind)
-    view = _view(kind, action)
+    aperture = None if validation is None else validation.get("aperture_m")
+    view = _view(kind, action, aperture)
     panels = 3 if validation is not None else 2
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), constrained_layout=True)
 
@@ -157,7 +160,9 @@ def capture_figure(
     if validation is not None:
         ax = axes[2]
         report = validation
-        gx, gy, mask = _region_mask(view, report["distance_m"])
+        # The region the validation predicted with: a push-grasp's less the planner's margin.
+        margin = PUSH_MARGIN if action == "push-grasp" else 0.0
+        gx, gy, mask = _region_mask(view, report["distance_m"] - margin)
         ax.contour(gx, gy, mask, levels=[0.5], colors=["k"], linewidths=1.5)
         # The unrotated scene, the right side of the hand (sweeps) and for boxes the theta = 0
         # slice the contours are drawn for.

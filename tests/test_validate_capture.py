@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from agents import validate_capture as vc
-from agents.capture_figure import capture_figure, check_validation
+from agents.capture_figure import _view, capture_figure, check_validation
 from agents.cli import main
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model.objects import OBJECTS, get_object
@@ -174,6 +174,13 @@ def test_push_grasp_validation_predicts_as_the_planner_pushes() -> None:
     assert edge.any() and not (predicted & edge).any() and ((predicted | edge) == inside).all()
     assert (need[predicted] <= vc.DISTANCE - vc.PUSH_MARGIN).all()
     assert (need[edge] > vc.DISTANCE - vc.PUSH_MARGIN).all()
+
+
+def test_the_region_figure_draws_the_validated_aperture() -> None:
+    """Panel (c) overlays a validation's trials on the region of the aperture it validated."""
+    assert _view("juice_bottle", "push-grasp", 0.235).aperture == pytest.approx(0.235)
+    default = _view("juice_bottle", "push-grasp").aperture
+    assert default == pytest.approx(vc.default_aperture(vc.get_object("juice_bottle").footprint))
 
 
 def test_sweep_summaries_count_each_side() -> None:
