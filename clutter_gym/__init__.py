@@ -7,7 +7,7 @@ Gymnasium-Robotics do), each with its `max_episode_steps`; truncation is Gymnasi
 - `ClutterRetrieveEE-v0`: end-effector steps, sparse reward, goal-conditioned (GoalEnv);
 - `ClutterRetrieveEEDense-v0`: the same with the dense (potential-shaped) reward;
 - `ClutterRetrievePrimitive-v0`: one step is one of the paper's parameterised primitives
-  (push-grasp, sweep, PickUp), built by the planner's action code (`agents.primitive_env`).
+  (push-grasp, sweep, PickUp), built by the planner's action code (`agents.learning.primitive_env`).
 """
 
 from gymnasium.envs.registration import register, registry
@@ -29,7 +29,11 @@ _VARIANTS: dict[str, tuple[str, dict[str, str], int]] = {
         {"reward_type": "dense"},
         100,
     ),
-    "ClutterRetrievePrimitive-v0": ("agents.primitive_env:ClutterRetrievePrimitiveEnv", {}, 6),
+    "ClutterRetrievePrimitive-v0": (
+        "agents.learning.primitive_env:ClutterRetrievePrimitiveEnv",
+        {},
+        6,
+    ),
 }
 ENV_IDS = tuple(_VARIANTS)
 """Every registered id (the tests run the Gymnasium and stable-baselines3 checkers on each)."""

@@ -1,5 +1,7 @@
 """The layers import downward only (agents -> planners -> clutter_gym), the shared model and
-the planners never load pybullet, and no planner module grows past what a newcomer can read."""
+the planners never load pybullet, no planner module grows past what a newcomer can read, and
+inside agents/ the subpackages keep their places: the command line and the figures are leaves
+nothing imports, learning runs no experiment, the runner and the policies stand alone."""
 
 from __future__ import annotations
 
@@ -16,6 +18,17 @@ LAYERS = ("clutter_gym", "planners", "agents")
 PYBULLET_FREE = ("clutter_gym.model", "planners")
 """What the planners stand on: importing these never loads a simulator."""
 MAX_PLANNER_MODULE_LINES = 600
+LEAVES = {"agents.cli": (), "agents.figures": ("agents.cli",)}
+"""Leaves and the only packages that may import them: nothing imports the command line, only the
+command line imports the figures (tests use both)."""
+MUST_NOT_IMPORT = {
+    "agents.learning": ("agents.experiments", "agents.cli", "agents.figures"),
+    "agents.runner": ("agents.experiments", "agents.learning", "agents.policies", "agents.cli",
+                      "agents.figures"),
+    "agents.policies": ("agents.experiments", "agents.learning", "agents.runner", "agents.cli",
+                        "agents.figures"),
+}  # fmt: skip
+"""Subpackages of agents/ and the ones each may not import."""
 
 
 def _module(path: Path) -> str:
@@ -78,3 +91,36 @@ def test_planners_and_the_model_never_load_pybullet() -> None:
 def test_planner_modules_stay_readable(path: Path) -> None:
     lines = len(path.read_text().splitlines())
     assert lines <= MAX_PLANNER_MODULE_LINES, f"{path.relative_to(ROOT)} has {lines} lines"
+
+
+def _within(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_command_line_and_the_figures_are_leaves(path: Path) -> None:
+    module = _module(path)
+    for line, imported in _imports(path):
+        for leaf, importers in LEAVES.items():
+            allowed = any(_within(module, p) for p in (leaf, *importers))
+            assert allowed or not _within(imported, leaf), (
+                f"{path.relative_to(ROOT)}:{line}: {module} imports {imported}, a leaf"
+            )
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_agents_subpackages_keep_their_places(path: Path) -> None:
+    module = _module(path)
+    for package, forbidden in MUST_NOT_IMPORT.items():
+        if not _within(module, package):
+            continue
+        for line, imported in _imports(path):
+            assert not any(_within(imported, f) for f in forbidden), (
+                f"{path.relative_to(ROOT)}:{line}: {module} imports {imported}"
+            )
+
+
+def test_every_agents_package_says_what_lives_there() -> None:
+    for init in sorted((ROOT / "agents").rglob("__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text()))
+        assert doc and len(doc.splitlines()) == 1, f"{init.relative_to(ROOT)}: one-line docstring"

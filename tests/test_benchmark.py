@@ -8,8 +8,11 @@ from typing import Any
 
 import pytest
 
-from agents.benchmark import Job, get_suite, run_benchmark
 from agents.cli import main
+from agents.cli.experiments import SUITE_NAMES
+from agents.experiments.benchmark import Job, run_benchmark
+from agents.experiments.suites import SUITES, get_suite
+from agents.figures.benchmark_plots import write_plots
 
 SMALL = {
     "scenes_per_group": 1,
@@ -29,9 +32,9 @@ def _comparable(record: dict[str, Any]) -> dict[str, Any]:
 @pytest.fixture(scope="module")
 def local_report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     out = tmp_path_factory.mktemp("local") / "table1.json"
-    return run_benchmark(
-        "table1", ("tsr", "pg"), out, markdown=out.with_suffix(".md"), plots=out.parent, **SMALL
-    )
+    report = run_benchmark("table1", ("tsr", "pg"), out, markdown=out.with_suffix(".md"), **SMALL)
+    report["plots"] = [str(p) for p in write_plots(report, out.parent)]
+    return report
 
 
 def test_small_table1_plans_executes_and_writes_table_and_plots(
@@ -153,3 +156,7 @@ def test_suites_hold_the_papers_cases() -> None:
         original = by_label[case.group]
         assert case.scene != original
         assert [o.name for o in case.scene.objects] == [o.name for o in original.objects]
+
+
+def test_the_command_line_offers_every_suite() -> None:
+    assert tuple(SUITES) == SUITE_NAMES

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from agents import jobs
 from agents.cli import main
-from agents.ik_bench import ANALYTIC, PREVIOUS
-from agents.plan_bench import bench_plan
+from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS
+from agents.experiments.speed.plan_speed import bench_plan
+from agents.runner import jobs
 from clutter_gym.model.scene import generate_scene, load_scene
 from tests.helpers import OUT_OF_REACH, lone_can
 

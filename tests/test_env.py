@@ -15,7 +15,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import clutter_gym
-from agents.scripted import DirectGraspPolicy
+from agents.policies.scripted import DirectGraspPolicy
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model import herb as hm
 from clutter_gym.model.reachability import approach_rotation

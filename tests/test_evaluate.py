@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.episodes import MOVED_M, objects_moved
+from agents.learning.episodes import MOVED_M, objects_moved
 from tests.test_train import ENV, SCENES, TINY_SAC, run, train_argv, write_config
 
 EVAL_SCENES = {k: v for k, v in SCENES.items() if k != "max_episode_steps"}

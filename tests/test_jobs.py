@@ -1,4 +1,4 @@
-"""The one job runner (`agents.jobs`): resumable log, cut lines, Ctrl-C, a killed parent."""
+"""The one job runner (`agents.runner.jobs`): resumable log, cut lines, Ctrl-C, a killed parent."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from typing import Any
 import psutil
 import pytest
 
-from agents.benchmark import Job, run_benchmark
-from agents.jobs import JobSpec, code_digest, config_digest, read_log, run_jobs
+from agents.experiments.benchmark import Job, run_benchmark
+from agents.runner.jobs import JobSpec, code_digest, config_digest, read_log, run_jobs
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
@@ -118,7 +118,7 @@ def _workers(parent: int, count: int, timeout: float = 60.0) -> list[psutil.Proc
 
 RUN_SLOW = (
     "from pathlib import Path\n"
-    "from agents.jobs import run_jobs\n"
+    "from agents.runner.jobs import run_jobs\n"
     "from tests.test_jobs import SLOW_SQUARES\n"
     "run_jobs([1, 2, 3, 4], SLOW_SQUARES, Path('run.jsonl'), 'c', workers=2)\n"
 )

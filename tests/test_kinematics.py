@@ -300,7 +300,7 @@ def test_cartesian_path_continues_from_analytic_solutions(monkeypatch: pytest.Mo
 
 def test_bench_ik_writes_json(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
     from agents.cli import main
-    from agents.ik_bench import ANALYTIC, PREVIOUS
+    from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS
 
     out = tmp_path / "ik.json"
     assert main(["bench", "ik", "--samples", "4", "--json", str(out)]) == 0

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import clutter_gym  # noqa: F401  (registers the env)
-from agents.rearrange_policy import RearrangePolicy
+from agents.policies.rearrange import RearrangePolicy
 from clutter_gym.model.scene import load_scene, scene_from_dict
 from planners.actions.settings import PlannerSettings
 from tests.helpers import OUT_OF_REACH, lone_can

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import clutter_gym  # noqa: F401  (registers the ids)
-from agents.primitive_env import (
+from agents.learning.primitive_env import (
     DIRECTIONS_DEG,
     INFEASIBLE_COST,
     PUSH_DISTANCES,

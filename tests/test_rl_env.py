@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import clutter_gym
-from agents.scripted import DirectGraspPolicy
+from agents.policies.scripted import DirectGraspPolicy
 from clutter_gym.env import ClutterRetrieveEEEnv, ClutterRetrieveEnv
 from clutter_gym.model.reachability import PUSH_HEIGHT, tcp_pose
 from clutter_gym.model.scene import (

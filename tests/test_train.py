@@ -27,10 +27,10 @@ import yaml
 from PIL import Image
 
 from agents.cli import main
-from agents.rl_config import ALGOS, HYPERPARAMS, load_hyperparams
-from agents.train import EVAL_COLUMNS, read_eval_csv
-from agents.trained import TrainedRun, read_run
-from agents.training_plots import Curve, band
+from agents.figures.training_curves import Curve, band
+from agents.learning.rl_config import ALGOS, HYPERPARAMS, load_hyperparams
+from agents.learning.runs import TrainedRun, read_run
+from agents.learning.train import EVAL_COLUMNS, read_eval_csv
 from clutter_gym import ENV_IDS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -191,7 +191,7 @@ def test_shipped_hyperparameters_name_registered_ids_and_known_keys() -> None:
 def test_shipped_goal_env_entries_build_their_model(algo: str) -> None:
     """Each algorithm's entry for the sparse end-effector variant (HER for SAC and TQC) builds
     its model on the env (what train checks before it starts)."""
-    from agents.train import GridRequest, TrainJob, check_build, plan_runs
+    from agents.learning.train import GridRequest, TrainJob, check_build, plan_runs
 
     hp = load_hyperparams(algo, "ClutterRetrieveEE-v0")
     request = GridRequest((algo,), hp.env_id, None, 1000, 1, (0,), False, Path("x"), None, 1, None)
@@ -203,7 +203,7 @@ def test_shipped_goal_env_entries_build_their_model(algo: str) -> None:
 def test_an_algorithm_that_cannot_act_in_the_action_space_is_one_line(tmp_path: Path) -> None:
     """SAC needs a Box action space (CartPole's is Discrete, as the primitive variant's is
     MultiDiscrete): refused by the check that builds the model, before any run."""
-    from agents.train import GridRequest, check_build, plan_runs
+    from agents.learning.train import GridRequest, check_build, plan_runs
 
     config = write_config(tmp_path / "c.yml", {"learning_starts": 1}, env="CartPole-v1")
     hp = load_hyperparams("sac", "CartPole-v1", config)

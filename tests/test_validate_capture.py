@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import validate_capture as vc
-from agents.capture_figure import _view, capture_figure, check_validation
 from agents.cli import main
+from agents.experiments import validate_capture as vc
+from agents.experiments.capture_objects import check_validation
+from agents.figures.capture_region import _view, capture_figure
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.world import TABLE

@@ -11,7 +11,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from agents.benchmark import PAPER_TABLE1, TABLE1_NOISES
+from agents.experiments.suites import PAPER_TABLE1, TABLE1_NOISES
 
 REPORT_KEYS = ("suite", "planners", "trials", "time_budget_s", "summary", "records")
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 ALGOS = ("ppo", "sac", "tqc")
-HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
+HYPERPARAMS = Path(__file__).resolve().parents[1] / "hyperparams"
 RL_EXTRA = "install the rl extra: pip install -e '.[rl]'"
 ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
 """Keys of an entry that are not keywords of the algorithm (rl-baselines3-zoo's names)."""

@@ -21,7 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Polygon as PolygonPatch
 from scipy.spatial import ConvexHull
 
-from agents.capture_figure import draw_outline
+from agents.figures.capture_region import draw_outline
 from clutter_gym.model.collision import Volume, part_points
 from clutter_gym.model.files import atomic_write_bytes
 from clutter_gym.model.kinematics import ArmKinematics

@@ -1,12 +1,13 @@
 """`clutter-gym bench plan`: Rearrange's planning time, and where it goes, as JSON.
 
-Each scene is planned at each noise level from ``seeds`` different detections (the seed draws
-the detection, the uncertainty samples and OMPL's random numbers), once with the analytic IK and
-once with the solver it replaced (random-restart Levenberg-Marquardt, `agents.ik_bench`), the two
-taking turns on the same detection so that the machine's load hits both alike. The report gives,
-per solver, the plans found, every planning time and its median, the share of planning time in
-IK, and how much of the planning time the planner's own statistics account for (`PlanStats`:
-every costly step has a part). Execution is measured by ``clutter-gym plan --execute``, not here.
+Each scene is planned at each noise level from ``seeds`` different detections (the seed draws the
+detection, the uncertainty samples and OMPL's random numbers), once with the analytic IK and once
+with the solver it replaced (random-restart Levenberg-Marquardt,
+`agents.experiments.speed.ik_speed`), the two taking turns on the same detection so that the
+machine's load hits both alike. The report gives, per solver, the plans found, every planning time
+and its median, the share of planning time in IK, and how much of the planning time the planner's
+own statistics account for (`PlanStats`: every costly step has a part). Execution is measured by
+``clutter-gym plan --execute``, not here.
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from agents.execute import detect_scene, plan_from_detection
-from agents.ik_bench import ANALYTIC, PREVIOUS, lm_restarts
+from agents.experiments.plan import detect_scene, plan_from_detection
+from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS, lm_restarts
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.scene import load_scene, shipped_scene
 from clutter_gym.sim.simulator import native_stdout_muted

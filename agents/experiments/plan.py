@@ -8,8 +8,8 @@ the surface), resets the env to it and replays the plan's env actions unchanged.
 succeeds when the env reports success (goal held by the fingers and lifted, or in the shelf's
 goal strip), with nothing toppled or pushed off the surface.
 
-Trial outcomes stream to ``<json>.trials.jsonl`` (`agents.jobs`), keyed by the plan, the worlds
-and the code, so an interrupted run resumes where it stopped and says so.
+Trial outcomes stream to ``<json>.trials.jsonl`` (`agents.runner.jobs`), keyed by the plan,
+the worlds and the code, so an interrupted run resumes where it stopped and says so.
 """
 
 from __future__ import annotations
@@ -22,24 +22,27 @@ from typing import Any
 
 import numpy as np
 
-from agents.jobs import JobSpec, config_digest, run_jobs
-from agents.plan_figure import write_timeline
-from agents.records import ExecutionSummary, TrialOutcome
+from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.records import ExecutionSummary, TrialOutcome
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
 from clutter_gym.model import herb as hm
 from clutter_gym.model.noise import detect, resolve_noise
 from clutter_gym.model.scene import Scene, load_scene, scene_to_dict
 from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS
-from clutter_gym.model.world import get_surface
+from clutter_gym.model.world import Surface, get_surface
 from planners.actions.arm import IKSolver
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import Plan, plan_retrieval, planner_kind
+from planners.kinds import planner_kind
+from planners.rearrange import Plan, plan_retrieval
 from planners.uncertainty import ObjectBelief, beliefs, sample_count
 
 WAYPOINTS = DEFAULT_WAYPOINTS
 WORLD_ATTEMPTS = 200
 FRAME_EVERY = 24
+PlanHook = Callable[[Plan, list[ObjectBelief], Surface], dict[str, Any]]
+"""Called with a found plan, its beliefs and the support; what it returns joins the report (the
+command line writes the timeline figure with it, so that no figure code is imported here)."""
 
 
 def detect_scene(scene: Scene, rng: np.random.Generator) -> np.ndarray:
@@ -103,7 +106,7 @@ def plan_from_detection(
     return plan, believed
 
 
-def execute(
+def replay(
     world: Scene,
     actions: list[np.ndarray],
     seed: int,
@@ -134,7 +137,7 @@ def execute(
 def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> TrialOutcome:
     """One trial's outcome; a trial that crashes is a failed trial, with the error."""
     try:
-        return execute(world, actions, seed=seed)
+        return replay(world, actions, seed=seed)
     except Exception as error:
         return TrialOutcome.crashed(repr(error))
 
@@ -165,7 +168,7 @@ def run_plan(
     trials: int = 0,
     out: Path | None = None,
     gif: Path | None = None,
-    figure: Path | None = None,
+    on_plan: PlanHook | None = None,
     seed: int = 0,
     time_budget: float = 20.0,
     samples: int | None = None,
@@ -194,15 +197,14 @@ def run_plan(
         "detection": np.round(detection, 4).tolist(),
         **plan.summary().as_dict(),
     }
-    if figure is not None and plan.success:
-        write_timeline(plan, beliefs, get_surface(scene.surface), figure)
-        report["figure"] = str(figure)
+    if on_plan is not None and plan.success:
+        report.update(on_plan(plan, beliefs, get_surface(scene.surface)))
     if plan.success and (trials or gif):
         actions = plan.actions(WAYPOINTS)
         worlds = true_worlds(scene, detection, max(trials, 1), rng)
         if gif is not None:
             with gif_writer(gif, fps=10) as frames:
-                outcome = execute(worlds[0], actions, seed=0, on_frame=frames.add)
+                outcome = replay(worlds[0], actions, seed=0, on_frame=frames.add)
             report["gif"] = str(gif)
             report["gif_trial"] = outcome.as_dict()
         if trials:

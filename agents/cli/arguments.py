@@ -167,3 +167,27 @@ def read_json(path: Path, flag: str) -> Any:
         raise ValueError(f"{flag}: {path} is not valid JSON ({error})") from None
     except OSError as error:
         raise ValueError(f"{flag}: {path} cannot be read ({error.strerror})") from None
+
+
+COUNT = integer(1)
+"""A count: an integer >= 1."""
+SEED = integer(0)
+"""A seed: an integer >= 0."""
+
+
+def noise(text: str) -> str | tuple[float, float]:
+    """A noise level name, or "sigma_xy,sigma_theta" in metres and radians."""
+    from clutter_gym.model.noise import NOISE_LEVELS, resolve_noise
+
+    try:
+        if "," in text:
+            xy, theta = text.split(",", 1)
+            return resolve_noise((float(xy), float(theta)))
+        resolve_noise(text)
+        return text
+    except ValueError as error:
+        levels = ", ".join(NOISE_LEVELS)
+        why = f" ({error})" if "," in text else ""
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a noise level ({levels}) or 'sigma_xy,sigma_theta'{why}"
+        ) from None

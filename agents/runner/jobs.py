@@ -56,7 +56,7 @@ def code_digest() -> str:
     """Digest of the package version and every file of the project's packages (code, shipped
     capture regions, scenes): a record made by other code is never resumed as if it were new."""
     digest = hashlib.sha256(clutter_gym.__version__.encode())
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     for package in _PACKAGES:
         for path in sorted((root / package).rglob("*")):
             if path.is_file() and "__pycache__" not in path.parts:

@@ -18,8 +18,8 @@ from typing import Any
 import gymnasium as gym
 
 import clutter_gym  # noqa: F401  (registers the ids, also in a freshly spawned process)
-from agents.episodes import Act
-from agents.rl_config import ALGOS, algorithm_class
+from agents.learning.episodes import Act
+from agents.learning.rl_config import ALGOS, algorithm_class
 
 RUN_JSON = "run.json"
 EVAL_CSV = "eval.csv"

@@ -17,7 +17,8 @@ from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.observation import Observation, decode
 from clutter_gym.model.trajectory import hold_action
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import Plan, plan_retrieval, planner_kind
+from planners.kinds import planner_kind
+from planners.rearrange import Plan, plan_retrieval
 from planners.uncertainty import beliefs, sample_count
 
 

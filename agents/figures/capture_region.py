@@ -25,7 +25,7 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon as PolygonPatch
 
-from agents.validate_capture import resolve_kind
+from agents.experiments.capture_objects import resolve_kind
 from clutter_gym.model.files import atomic_write_bytes
 from clutter_gym.model.noise import NOISE_LEVELS
 from clutter_gym.model.objects import Footprint, get_object
@@ -99,22 +99,6 @@ def draw_outline(ax: Axes, footprint: Footprint, pose: np.ndarray, **style: Any)
         return
     corners = np.array(footprint.corners_xy((float(x), float(y), float(theta))))
     ax.add_patch(PolygonPatch(corners, fill=False, **style))
-
-
-def check_validation(report: object, source: Path, action: str = "push-grasp") -> dict[str, Any]:
-    """A `clutter-gym validate-capture` report of ``action``, or ValueError naming the file."""
-    needed = ("object", "action", "distance_m", "trials", "rotation_0deg")
-    if not isinstance(report, dict) or any(key not in report for key in needed):
-        raise ValueError(
-            f"--validation: {source} is not a clutter-gym validate-capture report with the "
-            f"0 deg rotation (it needs the keys {', '.join(needed)})"
-        )
-    if report["action"] != action:
-        raise ValueError(
-            f"--validation: {source} validates {report['action']!r} regions; the figure is of "
-            f"{action!r} (pass --action {report['action']})"
-        )
-    return report
 
 
 def capture_figure(

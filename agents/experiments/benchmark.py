@@ -3,9 +3,9 @@
 A suite is a list of (scene, noise level) cases; every case is planned by every requested
 planner from the same detection (the seed of a case depends on the scene, the noise level and
 ``--seed`` only, never on the planner or the worker), and a returned plan is executed open loop
-on true worlds drawn from N(detection, Q) (`agents.execute`). One job is one (case, planner):
-jobs run in a local process pool or as Ray tasks, and every finished job is appended to
-``<json>.jobs.jsonl`` at once, so an interrupted run resumes where it stopped.
+on true worlds drawn from N(detection, Q) (`agents.experiments.plan`). One job is one
+(case, planner): jobs run in a local process pool or as Ray tasks, and every finished job is
+appended to ``<json>.jobs.jsonl`` at once, so an interrupted run resumes where it stopped.
 
 Suites:
 * ``table1``: Table 1, the 10 scenes of each clutter level (`scenes/paper`) at sigma1-sigma4.
@@ -18,72 +18,37 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import platform
 import statistics
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.execute import WAYPOINTS, detect_scene, execute_trial, plan_from_detection, true_worlds
-from agents.jobs import JobSpec, config_digest, run_jobs
-from agents.records import BenchmarkRecord, ExecutionSummary, PlanFacts
+from agents.experiments.plan import (
+    WAYPOINTS,
+    detect_scene,
+    execute_trial,
+    plan_from_detection,
+    true_worlds,
+)
+from agents.experiments.suites import (
+    CLUTTER_LEVELS,
+    PAPER_TABLE1,
+    TABLE1_NOISES,
+    Case,
+    check_planners,
+    get_suite,
+    select_cases,
+)
+from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.records import BenchmarkRecord, ExecutionSummary, PlanFacts
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.noise import resolve_noise
-from clutter_gym.model.scene import (
-    PERTURB_SHIFT,
-    PERTURB_TURN,
-    Scene,
-    load_scene,
-    perturbed,
-    shipped_scene,
-)
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import planner_kind
-
-TABLE1_NOISES = ("sigma1", "sigma2", "sigma3", "sigma4")
-CLUTTER_LEVELS = ("none", "medium", "high")
-PERTURBED_VARIANTS = 10
-"""Variants of each figure layout in the perturbed suite (issue: at least 10)."""
-FIGURE_SCENES = (
-    "figures/fig3_can_box_dumbbell",
-    "figures/fig16_shelf_can_behind_box",
-    "figures/fig2_high_uncertainty",
-    "can_behind_poptarts",
-)
-
-PAPER_TABLE1: dict[tuple[str, str], tuple[tuple[int, float], ...]] = {
-    ("tsr", "none"): ((10, 0.01), (9, 0.52), (0, 0.86), (0, 0.86)),
-    ("tsr", "medium"): ((10, 0.01), (9, 1.02), (0, 1.61), (0, 1.63)),
-    ("tsr", "high"): ((5, 0.54), (0, 1.97), (0, 3.22), (0, 3.08)),
-    ("pg", "none"): ((10, 0.02), (10, 0.58), (10, 1.00), (5, 1.44)),
-    ("pg", "medium"): ((10, 0.04), (10, 1.17), (10, 5.17), (0, 3.91)),
-    ("pg", "high"): ((8, 1.98), (5, 12.93), (3, 28.16), (0, 7.46)),
-}
-"""Table 1 of the paper (Dogar & Srinivasa): (scenes solved of 10, mean planning
-time [s]) per (planner, clutter level), at sigma1-sigma4. Reference data for the report."""
-
-
-@dataclass(frozen=True)
-class Case:
-    """One scene at one noise level; ``group`` is the clutter level or the figure."""
-
-    scene: Scene
-    label: str  # e.g. "high_03"
-    group: str
-    noise: str
-
-
-@dataclass(frozen=True)
-class Suite:
-    name: str
-    description: str
-    cases: tuple[Case, ...]
-    planners: tuple[str, ...]  # the default planners
 
 
 @dataclass(frozen=True)
@@ -106,83 +71,6 @@ class Job:
         every planner and every backend."""
         text = f"{self.case.label}/{self.case.noise}/{self.seed}"
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:4], "little")
-
-
-def table1_suite() -> Suite:
-    cases = tuple(
-        Case(load_scene(shipped_scene(f"paper/{level}_{k:02d}")), f"{level}_{k:02d}", level, noise)
-        for level in CLUTTER_LEVELS
-        for k in range(10)
-        for noise in TABLE1_NOISES
-    )
-    return Suite(
-        "table1",
-        "Table 1: 10 scenes x 3 clutter levels x 4 noise levels",
-        cases,
-        ("tsr", "pg"),
-    )
-
-
-def _figure_cases(variants: int) -> tuple[Case, ...]:
-    """The figure scenes at their own noise: as drawn (``variants`` 0), or that many seeded
-    perturbed variants of each (`clutter_gym.model.scene.perturbed`)."""
-    cases = []
-    for name in FIGURE_SCENES:
-        path = shipped_scene(name)
-        scene = load_scene(path)
-        if not isinstance(scene.noise, str):
-            raise ValueError(f"{path}: noise must be a level name for the suite")
-        figure = name.split("/")[-1]
-        if not variants:
-            cases.append(Case(scene, figure, figure, scene.noise))
-        for k in range(variants):
-            cases.append(Case(perturbed(scene, k), f"{figure}~{k:02d}", figure, scene.noise))
-    return tuple(cases)
-
-
-def fig15_suite() -> Suite:
-    return Suite(
-        "fig15",
-        "Pushing vs pick-and-place (§3.2.1) on the figure scenes: "
-        + ", ".join(n.split("/")[-1] for n in FIGURE_SCENES),
-        _figure_cases(0),
-        ("pushing", "pick-and-place"),
-    )
-
-
-def perturbed_suite() -> Suite:
-    return Suite(
-        "perturbed",
-        f"The figure layouts moved by up to {PERTURB_SHIFT:g} m and turned by up to "
-        f"{math.degrees(PERTURB_TURN):g} deg, {PERTURBED_VARIANTS} seeded variants each",
-        _figure_cases(PERTURBED_VARIANTS),
-        ("pushing", "pick-and-place"),
-    )
-
-
-SUITES: dict[str, Callable[[], Suite]] = {
-    "table1": table1_suite,
-    "fig15": fig15_suite,
-    "perturbed": perturbed_suite,
-}
-
-
-def get_suite(name: str) -> Suite:
-    try:
-        return SUITES[name]()
-    except KeyError:
-        raise ValueError(f"suite: {name!r} is unknown; allowed: {', '.join(SUITES)}") from None
-
-
-def check_planners(names: Sequence[str] | None, suite: Suite) -> tuple[str, ...]:
-    """The planners to run (default: the suite's); an unknown name lists the valid ones."""
-    if names is None:
-        return suite.planners
-    if not names:
-        raise ValueError("planners: none given; name at least one")
-    for name in names:
-        planner_kind(name)
-    return tuple(dict.fromkeys(names))
 
 
 # --------------------------------------------------------------------------------------------
@@ -257,23 +145,17 @@ def run_benchmark(
     backend: str = "local",
     scenes_per_group: int | None = None,
     noises: tuple[str, ...] | None = None,
-    plots: Path | None = None,
     work: Callable[[Job], dict[str, Any]] = run_job,
 ) -> dict[str, Any]:
-    """Run (or resume) a suite; write the JSON report, the Markdown table and the plots."""
+    """Run (or resume) a suite; write the JSON report and the Markdown table (the command line
+    draws the plots from the report with `agents.figures.benchmark_plots`)."""
     suite = get_suite(suite_name)
     names = check_planners(planners, suite)
     if trials < 0:
         raise ValueError(f"trials: {trials}; must be >= 0")
     if not (np.isfinite(time_budget) and time_budget > 0):
         raise ValueError(f"time_budget: {time_budget!r}; must be > 0")
-    cases = _first_scenes(suite.cases, scenes_per_group)
-    if noises is not None:
-        known = sorted({c.noise for c in suite.cases})
-        unknown = [n for n in noises if n not in known]
-        if unknown or not noises:
-            raise ValueError(f"noises: {list(noises)!r}; the suite has {', '.join(known)}")
-        cases = [c for c in cases if c.noise in noises]
+    cases = select_cases(suite, noises, scenes_per_group)
     jobs = [Job(c, p, seed, trials, time_budget) for c in cases for p in names]
     run = run_jobs(
         jobs,
@@ -303,25 +185,7 @@ def run_benchmark(
     atomic_write_text(out, json.dumps(report, indent=1) + "\n")
     if markdown is not None:
         atomic_write_text(markdown, to_markdown(report))
-    if plots is not None:
-        from agents.benchmark_plots import write_plots
-
-        report["plots"] = [str(p) for p in write_plots(report, plots)]
     return report
-
-
-def _first_scenes(cases: Iterable[Case], per_group: int | None) -> list[Case]:
-    if per_group is None:
-        return list(cases)
-    if per_group < 1:
-        raise ValueError(f"scenes_per_group: {per_group}; must be >= 1")
-    labels: dict[str, list[str]] = {}
-    for c in cases:
-        group = labels.setdefault(c.group, [])
-        if c.label not in group:
-            group.append(c.label)
-    keep = {label for group in labels.values() for label in group[:per_group]}
-    return [c for c in cases if c.label in keep]
 
 
 def summarize(records: list[BenchmarkRecord], suite: str) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """`clutter-gym train`: stable-baselines3 (PPO, SAC) and sb3-contrib (TQC) agents on any
 registered variant, in the conventions of rl-baselines3-zoo.
 
-One run is one (algorithm, env id, seed) in its own directory (`agents.trained` names the files):
+One run is one (algorithm, env id, seed) in its own directory (`agents.learning.runs` names the
+files):
 
 * ``run.json``: the settings and hyperparameters actually used, versions, seed, status;
 * ``eval.csv`` (timesteps, success_rate, mean_reward, mean_length) and ``tb/`` (TensorBoard):
@@ -22,10 +23,10 @@ grid every running run does so; Ray's tasks are not in the terminal's process gr
 grid stopped by Ctrl-C keeps each run's last periodic checkpoint.
 
 A grid (several seeds or algorithms) is one job per run for the project's job runner
-(`agents.jobs`: a local process pool or Ray tasks). The runs' directories, not the runner's log,
-say what is done, so the log beside them is a history of invocations. Every run uses one torch
-thread, so results do not depend on where it ran: the same seeds give the same eval.csv locally
-and on Ray.
+(`agents.runner.jobs`: a local process pool or Ray tasks). The runs' directories, not the runner's
+log, say what is done, so the log beside them is a history of invocations. Every run uses one torch
+thread, so results do not depend on where it ran: the same seeds give the same eval.csv locally and
+on Ray.
 """
 
 from __future__ import annotations
@@ -48,10 +49,9 @@ import gymnasium as gym
 from gymnasium import spaces
 from tqdm import tqdm
 
-from agents import trained as files
-from agents.episodes import Act, run_episode
-from agents.jobs import FirstInterrupt, JobSpec, Record, config_digest, run_jobs
-from agents.rl_config import (
+from agents.learning import runs as files
+from agents.learning.episodes import Act, run_episode
+from agents.learning.rl_config import (
     Hyperparams,
     algorithm_class,
     algorithm_kwargs,
@@ -60,7 +60,8 @@ from agents.rl_config import (
     require_rl,
     vec_env_tools,
 )
-from agents.trained import one_torch_thread
+from agents.learning.runs import one_torch_thread
+from agents.runner.jobs import FirstInterrupt, JobSpec, Record, config_digest, run_jobs
 from clutter_gym.model.files import atomic_write_text
 
 EVAL_SEED = 1_000_000

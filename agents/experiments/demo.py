@@ -11,7 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 import clutter_gym  # noqa: F401  (registers the env)
-from agents.rearrange_policy import RearrangePolicy
+from agents.policies.rearrange import RearrangePolicy
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
 from clutter_gym.model.scene import Scene, load_scene, scene_to_dict, shipped_scene

@@ -34,9 +34,9 @@ The same grid runs with the whole scene turned by `rotations` degrees about the 
 hand's approach axis along each rotation): pybullet's friction is anisotropic (two decoupled
 friction directions along its axes), which an action at 45 degrees exposes.
 
-Results stream to `<json>.trials.jsonl` as they finish (`agents.jobs`), keyed by everything that
-decides a trial's physics (object, action, aperture, distance, grid, starts, trajectories) and
-the code; a rerun with the same set-up skips the trials already there.
+Results stream to `<json>.trials.jsonl` as they finish (`agents.runner.jobs`), keyed by
+everything that decides a trial's physics (object, action, aperture, distance, grid, starts,
+trajectories) and the code; a rerun with the same set-up skips the trials already there.
 """
 
 from __future__ import annotations
@@ -51,14 +51,15 @@ from typing import Any
 
 import numpy as np
 
-from agents.jobs import JobSpec, config_digest, run_jobs
+from agents.experiments.capture_objects import ACTIONS, resolve_kind
+from agents.runner.jobs import JobSpec, config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
 from clutter_gym.model import herb as hm
 from clutter_gym.model.collision import Volume, make_checker
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
-from clutter_gym.model.objects import OBJECTS, ObjectSpec, footprint_gap, get_object
+from clutter_gym.model.objects import ObjectSpec, footprint_gap, get_object
 from clutter_gym.model.reachability import PUSH_HEIGHT, hand_pose, tcp_pose
 from clutter_gym.model.scene import SCENE_FORMAT
 from clutter_gym.model.trajectory import DEFAULT_WAYPOINTS, Segment, Trajectory
@@ -78,8 +79,6 @@ from planners.hand2d import (
     sweep_profile,
 )
 
-ACTIONS = ("push-grasp", "sweep")
-ALIASES = {"can": "soda_can", "bottle": "juice_bottle", "poptart": "poptart_box"}
 DISTANCE = 0.25  # m pushed or swept
 WAYPOINTS = DEFAULT_WAYPOINTS
 PUSH_WAYPOINTS = 10
@@ -120,20 +119,6 @@ class Trial:
     @property
     def success(self) -> bool:
         return self.outcome == "success"
-
-
-def resolve_kind(name: str, action: str = "push-grasp") -> str:
-    """The object kind of a CLI name, if ``action`` can be done to it. Any object can be swept
-    here, one the planner never pushes (``pushable=False``) included: whether it stays upright
-    when swept is what decides that flag."""
-    kind = ALIASES.get(name, name)
-    if kind not in OBJECTS:
-        allowed = sorted({*ALIASES, *OBJECTS})
-        raise ValueError(f"--object: unknown object {name!r}; allowed: {', '.join(allowed)}")
-    spec = OBJECTS[kind]
-    if action == "push-grasp" and not (spec.graspable and spec.liftable):
-        raise ValueError(f"--object: {kind} cannot be push-grasped and lifted")
-    return kind
 
 
 def grid(
@@ -437,7 +422,7 @@ def start_trial(env: ClutterRetrieveEnv, setup: Setup, kind: str, pose: Sequence
     return ""
 
 
-def execute(env: ClutterRetrieveEnv, actions: Sequence[np.ndarray]) -> dict[str, Any]:
+def step_actions(env: ClutterRetrieveEnv, actions: Sequence[np.ndarray]) -> dict[str, Any]:
     """Step the actions until the episode ends; the last info."""
     info: dict[str, Any] = {"failure": "", "is_success": False}
     for action in actions:
@@ -454,7 +439,7 @@ def run_trial(env: ClutterRetrieveEnv, kind: str, setup: Setup, pose: Sequence[f
         return f"skipped: {reason}"
     if setup.action_type == "sweep":
         return judge_sweep(sweep_end(env, setup), sweep_profile(setup.aperture).span)
-    info = execute(env, setup.actions)
+    info = step_actions(env, setup.actions)
     return "success" if info["is_success"] else f"failure: {info['failure'] or 'not held'}"
 
 
@@ -471,7 +456,7 @@ class SweepEnd:
 
 def sweep_end(env: ClutterRetrieveEnv, setup: Setup) -> SweepEnd:
     """Execute a started trial's actions, measuring where the hand's motion ends."""
-    info = execute(env, setup.actions)
+    info = step_actions(env, setup.actions)
     if info["failure"]:
         return SweepEnd(math.inf, math.nan, 0.0, info["failure"])
     origin = np.asarray(setup.frame.origin) + setup.distance * setup.frame.x_axis
@@ -479,7 +464,7 @@ def sweep_end(env: ClutterRetrieveEnv, setup: Setup) -> SweepEnd:
     y = float(end.to_frame(info["true_object_poses"][:1])[0, 1])
     gap, arm = hand_contact(env)
     tilt = _tilt(env)
-    info = execute(env, setup.then)
+    info = step_actions(env, setup.then)
     return SweepEnd(gap, y, max(tilt, _tilt(env)), info["failure"], arm)
 
 

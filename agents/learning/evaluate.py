@@ -1,5 +1,5 @@
 """`clutter-gym evaluate`: trained agents, the planners and the scripted grasp on the same
-episodes, measured the same way (`agents.episodes`).
+episodes, measured the same way (`agents.learning.episodes`).
 
 Episode k of every agent resets with seed ``seed + k``; every env is made with the same scene
 keywords (`SCENE_KEYWORDS`: a scene list, level, goal kind, noise, surface), so every agent
@@ -27,53 +27,19 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.episodes import Act, env_scene, run_episode
-from agents.jobs import JobSpec, Record, config_digest, run_jobs
-from agents.rearrange_policy import RearrangePolicy
-from agents.scripted import DirectGraspPolicy
-from agents.trained import TrainedRun, make_env, one_torch_thread, read_run
+from agents.learning.agent_specs import AgentSpec
+from agents.learning.episodes import Act, env_scene, run_episode
+from agents.learning.runs import TrainedRun, make_env, one_torch_thread
+from agents.policies.rearrange import RearrangePolicy
+from agents.policies.scripted import DirectGraspPolicy
+from agents.runner.jobs import JobSpec, Record, config_digest, run_jobs
 from clutter_gym.media import write_json
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.scene import scene_to_dict
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import PLANNERS
 
 SCENE_KEYWORDS = ("scenes", "level", "goal_kind", "noise", "surface")
 TRAJECTORY_ID = "ClutterRetrieve-v0"
-SCRIPTED = "scripted"
-PLANNER_PREFIX = "planner:"
-
-
-@dataclass(frozen=True)
-class AgentSpec:
-    """An agent as given on the command line: a trained run, a planner or the scripted grasp."""
-
-    label: str
-    kind: str  # "trained", "planner" or "scripted"
-    planner: str = ""
-    run: TrainedRun | None = None
-    digest: str = ""
-
-
-def parse_agent(text: str) -> AgentSpec:
-    """``planner:NAME``, ``scripted`` or a training directory; ValueError listing them."""
-    if text == SCRIPTED:
-        return AgentSpec(label=text, kind="scripted")
-    if text.startswith(PLANNER_PREFIX):
-        name = text[len(PLANNER_PREFIX) :]
-        if name not in PLANNERS:
-            raise ValueError(
-                f"{text!r}: no such planner; allowed: "
-                + ", ".join(PLANNER_PREFIX + p for p in PLANNERS)
-            )
-        return AgentSpec(label=text, kind="planner", planner=name)
-    directory = Path(text)
-    if not directory.is_dir():
-        allowed = ", ".join([*(PLANNER_PREFIX + p for p in PLANNERS), SCRIPTED])
-        raise ValueError(f"{text!r} is not a training directory, nor one of: {allowed}")
-    run = read_run(directory)
-    digest = hashlib.sha256(run.model.read_bytes()).hexdigest()[:16]
-    return AgentSpec(label=text, kind="trained", run=run, digest=digest)
 
 
 def scene_keywords(agents: list[AgentSpec], given: dict[str, Any]) -> dict[str, Any]:

@@ -1,0 +1,144 @@
+"""The learning commands: `train` (stable-baselines3 / sb3-contrib runs and grids) and
+`evaluate` (trained agents, planners and the scripted grasp on the same episodes)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from agents.cli.arguments import (
+    COUNT,
+    SEED,
+    input_file,
+    integers,
+    names_from,
+    noise,
+    output_dir,
+    output_file,
+    positive_number,
+)
+from agents.learning.rl_config import ALGOS
+from agents.runner.jobs import BACKENDS
+from clutter_gym import ENV_IDS
+
+
+def add_train(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--algo", type=names_from(ALGOS, "an algorithm"), required=True,
+        help="ppo, sac or tqc; comma-separated for a grid",
+    )  # fmt: skip
+    parser.add_argument("--env", choices=ENV_IDS, required=True, help="the variant's id")
+    parser.add_argument(
+        "--config", type=input_file, default=None,
+        help="hyperparameters YAML keyed by env id (None: agents/hyperparams/<algo>.yml)",
+    )  # fmt: skip
+    parser.add_argument("--steps", type=COUNT, default=None, help="env steps (None: n_timesteps)")
+    parser.add_argument("--n-envs", type=COUNT, default=None, help="envs (None: n_envs, or 1)")
+    seeds = parser.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=SEED, default=0, help="the run's seed")
+    seeds.add_argument(
+        "--seeds", type=integers(0), default=None, help="a grid of seeds, e.g. 0,1,2"
+    )
+    parser.add_argument(
+        "--out", type=output_dir, required=True, help="the run's directory (a grid's: one per run)"
+    )
+    parser.add_argument("--backend", choices=BACKENDS, default="local", help="where runs go")
+    parser.add_argument("--workers", type=COUNT, default=1, help="runs of a grid in parallel")
+    parser.add_argument(
+        "--eval-freq", type=COUNT, default=None, help="steps between evaluations (None: steps/10)"
+    )
+    parser.add_argument("--eval-episodes", type=COUNT, default=10, help="episodes per evaluation")
+    parser.add_argument(
+        "--save-freq", type=COUNT, default=None, help="steps between checkpoints (None: eval-freq)"
+    )
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from agents.learning.train import GridRequest, prepare_grid, run_grid
+
+    request = GridRequest(
+        algos=args.algo,
+        env_id=args.env,
+        config=args.config,
+        steps=args.steps,
+        n_envs=args.n_envs,
+        seeds=args.seeds or (args.seed,),
+        grid=args.seeds is not None or len(args.algo) > 1,
+        out=args.out,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        save_freq=args.save_freq,
+    )
+    jobs = prepare_grid(request)  # every check before any training
+    records = run_grid(jobs, args.out, backend=args.backend, workers=args.workers)
+    for record in records:
+        print(json.dumps(record))
+    return 0 if all(r["status"] == "finished" for r in records) else 1
+
+
+def _agent(text: str) -> object:
+    """An agent of `clutter-gym evaluate`, checked now (a training directory is read)."""
+    from agents.learning.agent_specs import parse_agent
+
+    try:
+        return parse_agent(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def add_evaluate(parser: argparse.ArgumentParser) -> None:
+    from clutter_gym.model.scene import GOAL_KINDS, LEVELS
+    from clutter_gym.model.world import SURFACES
+
+    parser.add_argument(
+        "--agent", type=_agent, action="append", required=True,
+        help="a training directory, planner:NAME (pushing, pg, tsr, pick-and-place) or scripted",
+    )  # fmt: skip
+    parser.add_argument("--env", choices=ENV_IDS, required=True, help="the evaluated variant")
+    parser.add_argument("--episodes", type=COUNT, default=10, help="episodes per agent")
+    parser.add_argument("--seed", type=SEED, default=0, help="episode k resets with seed + k")
+    parser.add_argument(
+        "--json", type=output_file, required=True, help="report; its jobs log goes beside it"
+    )
+    parser.add_argument("--md", type=output_file, default=None, help="the table as Markdown")
+    parser.add_argument("--level", choices=LEVELS, default=None, help="clutter of the scenes")
+    parser.add_argument("--goal-kind", choices=GOAL_KINDS, default=None, help="goal's kind")
+    parser.add_argument("--noise", type=noise, default=None, help="detection noise override")
+    parser.add_argument("--surface", choices=tuple(SURFACES), default=None, help="support")
+    parser.add_argument(
+        "--scenes", type=input_file, nargs="+", default=None, help="scene files to draw from"
+    )
+    parser.add_argument("--budget", type=positive_number, default=20.0, help="planning [s]")
+    parser.add_argument("--workers", type=COUNT, default=1, help="episodes in parallel")
+    parser.add_argument("--backend", choices=BACKENDS, default="local", help="where jobs run")
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    from agents.learning.evaluate import (
+        check_envs,
+        plan_episodes,
+        run_evaluation,
+        scene_keywords,
+    )
+
+    given = {
+        "level": args.level,
+        "goal_kind": args.goal_kind,
+        "noise": args.noise,
+        "surface": args.surface,
+        "scenes": [str(path) for path in args.scenes] if args.scenes else None,
+    }
+    scenes = scene_keywords(args.agent, {k: v for k, v in given.items() if v is not None})
+    jobs = plan_episodes(args.agent, args.episodes, args.seed, scenes, args.budget)
+    check_envs(jobs)
+    report = run_evaluation(
+        args.agent, args.env, jobs, args.json, args.md, args.workers, args.backend
+    )
+    for label, cell in report["summary"].items():
+        print(json.dumps({"agent": label, **cell}))
+    print(f"wrote {', '.join(str(p) for p in (args.json, args.md) if p)}", file=sys.stderr)
+    return 0
+
+
+COMMANDS = {"train": (add_train, run_train), "evaluate": (add_evaluate, run_evaluate)}

@@ -1,0 +1,1 @@
+"""The paper's experiments: plan and execute, benchmark, validate-capture, reachability, demo."""

@@ -1,0 +1,1 @@
+"""Speed benchmarks (`clutter-gym bench`): the env, capture regions, planning and IK, as JSON."""

@@ -1,0 +1,1 @@
+"""Learning on the env: the primitive env, training, evaluation, RL configs and run directories."""
