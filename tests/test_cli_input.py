@@ -177,3 +177,54 @@ def test_an_unwritable_cache_directory_is_a_warning_not_a_crash(
     assert done.returncode == 0, done.stderr
     assert "is not writable" in done.stderr and "XDG_CACHE_HOME" in done.stderr
     assert png.stat().st_size > 1000
+
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("pybullet", "pybullet_utils", "torch", "stable_baselines3", "sb3_contrib")
+"""What `--help` and an argument error never load (nor the planners)."""
+LOADED = (
+    "import json, sys\n"
+    "from agents.cli import main\n"
+    "for argv in {argvs!r}:\n"
+    "    main(argv)\n"
+    "print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in {heavy!r})))\n"
+)
+
+
+def _loaded(*argvs: list[str]) -> list[str]:
+    """The heavy modules and the planner modules loaded by running `main` on ``argvs``."""
+    code = LOADED.format(argvs=list(argvs), heavy=(*HEAVY, "planners"))
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_help_loads_no_simulator_torch_or_planner() -> None:
+    assert _loaded(["--help"], ["--version"]) == []
+
+
+def test_argument_errors_load_no_simulator_torch_or_planner(
+    files: dict[str, Path], tmp_path: Path
+) -> None:
+    places = {key: str(path) for key, path in files.items()} | {"tmp": str(tmp_path)}
+    argvs = [[a.format(**places) for a in argv] for _, argv, _ in CASES]
+    argvs += [
+        ["plan", "--scene", places["scene"], "--planner", "rrt"],
+        ["validate-capture", "--object", "piano", "--json", f"{tmp_path}/v.json"],
+        ["evaluate", "--agent", "nonsense", "--env", "ClutterRetrieve-v0", "--json", "e.json"],
+        ["train", "--algo", "dqn", "--env", "ClutterRetrieve-v0", "--out", f"{tmp_path}/t"],
+        ["frobnicate"],
+    ]
+    # The planners' names (planners.kinds, data only) are all an argument check may read.
+    assert set(_loaded(*argvs)) <= {"planners", "planners.kinds"}
+
+
+def test_no_pybullet_banner_in_a_commands_output(files: dict[str, Path], tmp_path: Path) -> None:
+    png = tmp_path / "scene.png"
+    done = _clutter_gym("render", "--scene", str(files["scene"]), "--out", str(png))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == f"wrote {png}\n" and "pybullet" not in done.stderr
+    code = "import clutter_gym.env; print('only this')"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert (done.stdout, done.stderr) == ("only this\n", "")

@@ -27,9 +27,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
-from typing import NamedTuple, NoReturn
-
-from clutter_gym import __version__
+from typing import Any, NamedTuple, NoReturn
 
 
 class Command(NamedTuple):
@@ -115,6 +113,16 @@ class _CommandParser(_Parser):
         return super().parse_known_args(args, namespace)
 
 
+class _Version(argparse._VersionAction):
+    """--version, reading the version only when asked (importing clutter_gym loads gymnasium)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any, **kwargs: Any) -> None:
+        from clutter_gym import __version__
+
+        self.version = f"clutter-gym {__version__}"
+        super().__call__(parser, *args, **kwargs)
+
+
 class _HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
     """The module docstring as written, and every option's default in --help (once: a help
     text that already says its default, "(None: ...)" or "(default: ...)", keeps its own)."""
@@ -128,7 +136,7 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefa
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="clutter-gym", description=__doc__)
-    parser.add_argument("--version", action="version", version=f"clutter-gym {__version__}")
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_CommandParser)
     for command in COMMANDS:
         sub.add_parser(command.name, help=command.help, command=command)

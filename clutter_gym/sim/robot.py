@@ -21,10 +21,10 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pybullet
 
 from clutter_gym.model import herb as hm
 from clutter_gym.model.herb import OPEN_HAND, HandCommand, hand_targets
+from clutter_gym.sim.bullet import pybullet
 from clutter_gym.sim.simulator import Simulator
 
 FINGERS = ("f1", "f2", "f3")

@@ -11,20 +11,16 @@ is what bit-identical rollouts need.
 
 from __future__ import annotations
 
-import os
-import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pybullet
-from pybullet_utils.bullet_client import BulletClient
 
 from clutter_gym.model.objects import ObjectSpec
 from clutter_gym.model.world import Box
+from clutter_gym.sim.bullet import BulletClient, native_stdout_muted, pybullet
 
 TIMESTEP = 1.0 / 240.0
 Transform = tuple[tuple[float, ...], tuple[float, ...]]
@@ -42,22 +38,6 @@ class Camera:
     width: int = 480
     height: int = 360
     fov: float = 50.0
-
-
-@contextmanager
-def native_stdout_muted() -> Iterator[None]:
-    """Send file descriptor 1 to /dev/null: pybullet's C code prints "argv[0]=" on stdout when
-    a client connects (ours, and panda-gym's in `clutter-gym bench env`), which would land in
-    the middle of a CLI's JSON lines (the benchmark's workers each connect)."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 class _Client(BulletClient):

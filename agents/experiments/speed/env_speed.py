@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 import clutter_gym  # noqa: F401  (registers the variants)
 from clutter_gym.model import herb as hm
-from clutter_gym.sim.simulator import native_stdout_muted
+from clutter_gym.sim.bullet import native_stdout_muted
 
 
 def rss_mb() -> float:

@@ -25,7 +25,7 @@ from clutter_gym.model.collision import make_checker
 from clutter_gym.model.kinematics import CHECK_SPACING, J3_SAMPLES, MAX_CHECKS, ArmKinematics
 from clutter_gym.model.reachability import HEADINGS_DEG, HEIGHTS, PROBE_HAND, hand_pose
 from clutter_gym.model.world import TABLE
-from clutter_gym.sim.simulator import native_stdout_muted
+from clutter_gym.sim.bullet import native_stdout_muted
 
 X_RANGE = (0.45, 0.95)
 """m: hand_base x of the targets (HERB's table workspace and a margin on either side)."""

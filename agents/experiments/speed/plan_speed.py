@@ -24,7 +24,7 @@ from agents.experiments.plan import detect_scene, plan_from_detection
 from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS, lm_restarts
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.scene import load_scene, shipped_scene
-from clutter_gym.sim.simulator import native_stdout_muted
+from clutter_gym.sim.bullet import native_stdout_muted
 from planners.actions.arm import Free, IKSolver
 from planners.actions.settings import PlannerSettings
 
