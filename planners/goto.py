@@ -250,7 +250,7 @@ def plan_goto(
         path = _ompl_plan(
             q0, q1, count.free_within_budget, lo, hi, count.stop, resolution, constraint,
             count.add_jacobian,
-        )  # fmt: skip
+        )
     finally:
         ou.setLogLevel(level)
     if path is None:

@@ -27,7 +27,7 @@ MUST_NOT_IMPORT = {
                       "agents.figures"),
     "agents.policies": ("agents.experiments", "agents.learning", "agents.runner", "agents.cli",
                         "agents.figures"),
-}  # fmt: skip
+}
 """Subpackages of agents/ and the ones each may not import."""
 
 

@@ -13,6 +13,7 @@ from agents.cli.experiments import SUITE_NAMES
 from agents.experiments.benchmark import Job, run_benchmark
 from agents.experiments.suites import SUITES, get_suite
 from agents.figures.benchmark_plots import write_plots
+from tests.helpers import TAB_BLUE, WHITE, assert_picture
 
 SMALL = {
     "scenes_per_group": 1,
@@ -56,7 +57,7 @@ def test_small_table1_plans_executes_and_writes_table_and_plots(
     text = markdown.read_text()
     assert "| sigma2 | " in text and "(10 / 0.58)" in text  # PG's paper cell beside ours
     for png in local_report["plots"]:
-        assert Path(png).stat().st_size > 10_000
+        assert_picture(Path(png), min_width=600, colours=(WHITE, TAB_BLUE))
 
 
 @pytest.mark.slow
@@ -74,7 +75,7 @@ def _fake(job: Job, reason: str = "") -> dict[str, Any]:
     return {"key": job.key, "scene": job.case.label, "group": job.case.group,
             "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
             "reason": reason, "planning_time_s": 0.1, "trials": 0, "execution_successes": 0,
-            "error": ""}  # fmt: skip
+            "error": ""}
 
 
 def test_an_interrupted_run_resumes_from_its_log(tmp_path: Path) -> None:
@@ -128,7 +129,7 @@ def test_a_crashing_job_is_marked_failed_and_the_run_goes_on(tmp_path: Path) -> 
         (["--suite", "table1", "--backend", "dask"], "invalid choice: 'dask' (choose from"),
         (["--suite", "table1", "--noises", "sigma9"], "has sigma1, sigma2, sigma3, sigma4"),
     ],
-)  # fmt: skip
+)
 def test_bad_names_are_one_error_listing_the_valid_ones(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

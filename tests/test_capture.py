@@ -221,7 +221,7 @@ def _nan_arrays(path: Path) -> None:
 
 
 CORRUPTIONS = {"truncated": _truncate, "flipped byte": _flip_byte, "a directory": _directory,
-               "NaN arrays": _nan_arrays}  # fmt: skip
+               "NaN arrays": _nan_arrays}
 
 
 @pytest.mark.parametrize("corrupt", CORRUPTIONS.values(), ids=CORRUPTIONS.keys())

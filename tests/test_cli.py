@@ -16,7 +16,7 @@ from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS
 from agents.experiments.speed.plan_speed import bench_plan
 from agents.runner import jobs
 from clutter_gym.model.scene import generate_scene, load_scene
-from tests.helpers import OUT_OF_REACH, lone_can
+from tests.helpers import OUT_OF_REACH, TAB_GREEN, TABLE_BROWN, WHITE, assert_picture, lone_can
 
 
 def test_scene_command_writes_the_generated_scene(tmp_path: Path) -> None:
@@ -30,8 +30,7 @@ def test_render_command_writes_a_png(tmp_path: Path) -> None:
     png = tmp_path / "scene.png"
     main(["scene", "--level", "medium", "--seed", "1", "--out", str(scene)])
     assert main(["render", "--scene", str(scene), "--out", str(png)]) == 0
-    with Image.open(png) as image:
-        assert image.size == (480, 360)
+    assert_picture(png, size=(480, 360), colours=(TABLE_BROWN,))
 
 
 def test_bad_scene_file_is_one_clear_error(
@@ -63,6 +62,7 @@ def test_demo_plans_clears_the_box_and_retrieves_the_can(tmp_path: Path) -> None
     with Image.open(tmp_path / "demo.gif") as gif:
         # PIL merges identical consecutive frames (the arm at rest), so at most as many.
         assert 50 < gif.n_frames == summary["frames"]
+    assert_picture(tmp_path / "demo.gif", size=(480, 360), colours=(TABLE_BROWN,))
 
 
 def test_bench_env_writes_json(tmp_path: Path) -> None:
@@ -112,8 +112,7 @@ def test_validate_capture_small_run_and_resume(tmp_path: Path) -> None:
 def test_capture_region_figure(tmp_path: Path) -> None:
     png = tmp_path / "fig.png"
     assert main(["capture-region", "--object", "bottle", "--out", str(png)]) == 0
-    with Image.open(png) as image:
-        assert image.width > 800
+    assert_picture(png, min_width=800, colours=(WHITE, (207, 232, 207)))  # the region's fill
 
 
 def test_bench_capture_writes_json(tmp_path: Path) -> None:
@@ -141,7 +140,7 @@ def test_plan_executes_on_true_worlds_and_resumes(
     report = json.loads(out.read_text())
     assert report["success"] and report["actions"] == 1 and report["samples"] == 30
     assert report["trials"] == 2 and report["execution_success_rate"] == 1.0
-    assert (tmp_path / "t.png").stat().st_size > 10_000
+    assert_picture(tmp_path / "t.png", min_width=300, colours=(WHITE, TAB_GREEN))
     log = tmp_path / "plan.json.trials.jsonl"
     assert len(log.read_text().splitlines()) == 2
     capsys.readouterr()

@@ -12,13 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from agents.cli import main
-
-
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
+from tests.helpers import TABLE_BROWN, assert_picture
+from tests.helpers import run_cli as run
 
 
 @pytest.fixture
@@ -115,7 +110,7 @@ CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
                                 "--validation", "{other}"], ("--validation", "other.json")),
     ("unknown object", ["capture-region", "--object", "piano", "--out", "{tmp}/c.png"],
      ("--object", "piano", "can")),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("argv", "texts"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
@@ -160,7 +155,7 @@ def _clutter_gym(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
 def test_bench_env_stdout_is_pure_json(tmp_path: Path) -> None:
     pytest.importorskip("panda_gym")  # its pybullet client printed argv[0]=... on stdout
     done = _clutter_gym("bench", "env", "--steps", "20", "--trajectory-steps", "1",
-                        "--resets", "2", "--primitive-steps", "2")  # fmt: skip
+                        "--resets", "2", "--primitive-steps", "2")
     assert done.returncode == 0, done.stderr
     (line,) = done.stdout.splitlines()
     assert json.loads(line)["panda_push_v3_steps_per_s"] > 0
@@ -173,10 +168,10 @@ def test_an_unwritable_cache_directory_is_a_warning_not_a_crash(
     done = _clutter_gym(
         "render", "--scene", str(files["scene"]), "--out", str(png),
         XDG_CACHE_HOME=str(files["file"] / "cache"),
-    )  # fmt: skip
+    )
     assert done.returncode == 0, done.stderr
     assert "is not writable" in done.stderr and "XDG_CACHE_HOME" in done.stderr
-    assert png.stat().st_size > 1000
+    assert_picture(png, size=(480, 360), colours=(TABLE_BROWN,))
 
 
 ROOT = Path(__file__).resolve().parents[1]

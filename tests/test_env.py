@@ -3,7 +3,6 @@ rules (the learning-specific parts of the end-effector variants: tests/test_rl_e
 
 from __future__ import annotations
 
-import hashlib
 import json
 import subprocess
 import sys
@@ -21,6 +20,13 @@ from clutter_gym.model import herb as hm
 from clutter_gym.model.reachability import approach_rotation
 from clutter_gym.model.scene import scene_to_dict
 from clutter_gym.model.world import TABLE
+from tests.helpers import (
+    EE_IDS,
+    TRAJECTORY_ID,
+    hold_action,
+    rollout_digest,
+    still_action,
+)
 
 CAN_SCENE = {
     "format": "clutter-gym-scene/1",
@@ -36,27 +42,6 @@ CAN_SCENE = {
 
 def make(**kwargs: object) -> ClutterRetrieveEnv:
     return gym.make("ClutterRetrieve-v0", **kwargs).unwrapped  # type: ignore[return-value]
-
-
-def hold_action(env: ClutterRetrieveEnv, obs: dict[str, np.ndarray]) -> np.ndarray:
-    """A trajectory that keeps the arm where it is: cheap and never touches anything."""
-    row = np.r_[obs["arm_joints"], 0.0, 0.0]
-    return np.tile(row, (env.action_space.shape[0], 1)).astype(np.float32)
-
-
-OPEN_AND_HOLD = np.array([0.0, 0.0, 0.0, 0.0, -1.0], dtype=np.float32)
-"""An end-effector action that holds the arm where it is and keeps the hand open."""
-
-
-def still_action(env: gym.Env, obs: dict[str, np.ndarray]) -> np.ndarray:
-    """The action of any variant that keeps the arm where it is and the hand open."""
-    if isinstance(env.unwrapped, ClutterRetrieveEnv):
-        return hold_action(env.unwrapped, obs)
-    return OPEN_AND_HOLD
-
-
-TRAJECTORY_ID = "ClutterRetrieve-v0"
-EE_IDS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0")
 
 
 @pytest.mark.parametrize("env_id", clutter_gym.ENV_IDS)
@@ -81,34 +66,6 @@ def test_stable_baselines3_checker(env_id: str) -> None:
     env.close()
 
 
-def rollout_digest(seed: int, env_id: str, steps: int) -> str:
-    """Hash of every observation, reward and info of a seeded rollout with seeded actions."""
-    env = gym.make(env_id, level="high")
-    obs, info = env.reset(seed=seed)
-    env.action_space.seed(seed)
-    digest = hashlib.sha256()
-
-    def feed(o: dict[str, np.ndarray], i: dict[str, object], r: float = 0.0) -> None:
-        for key in sorted(o):
-            digest.update(np.ascontiguousarray(o[key]).tobytes())
-        digest.update(np.asarray(i["true_object_poses"]).tobytes())
-        digest.update(np.float64(r).tobytes())
-
-    feed(obs, info)
-    for _ in range(steps):
-        if env_id == TRAJECTORY_ID:
-            action = hold_action(env.unwrapped, obs)  # type: ignore[arg-type]
-            action[:, 7:] = env.action_space.sample()[:, 7:]
-        else:
-            action = env.action_space.sample()
-        obs, reward, terminated, truncated, info = env.step(action)
-        feed(obs, info, reward)
-        if terminated or truncated:
-            obs, info = env.reset()
-    env.close()
-    return digest.hexdigest()
-
-
 @pytest.mark.parametrize(("env_id", "steps"), [*((i, 40) for i in EE_IDS), (TRAJECTORY_ID, 2)])
 def test_same_seed_same_rollout_in_process(env_id: str, steps: int) -> None:
     assert rollout_digest(3, env_id, steps) == rollout_digest(3, env_id, steps)
@@ -117,7 +74,7 @@ def test_same_seed_same_rollout_in_process(env_id: str, steps: int) -> None:
 
 def test_same_seed_same_rollout_across_processes() -> None:
     code = (
-        "from tests.test_env import rollout_digest; "
+        "from tests.helpers import rollout_digest; "
         "print(rollout_digest(7, 'ClutterRetrieveEE-v0', 40))"
     )
     root = Path(__file__).resolve().parents[1]

@@ -14,9 +14,10 @@ import pytest
 
 from agents.cli import main
 from agents.learning.episodes import MOVED_M, objects_moved
-from tests.test_train import ENV, SCENES, TINY_SAC, run, train_argv, write_config
+from tests.helpers import TINY_SAC, TRAIN_ENV, TRAIN_SCENES, train_argv, write_config
+from tests.helpers import run_cli as run
 
-EVAL_SCENES = {k: v for k, v in SCENES.items() if k != "max_episode_steps"}
+EVAL_SCENES = {k: v for k, v in TRAIN_SCENES.items() if k != "max_episode_steps"}
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +31,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def evaluate_argv(tmp_path: Path, *agents: str, **flags: str) -> list[str]:
-    argv = ["evaluate", "--env", ENV, "--episodes", "2", "--seed", "3"]
+    argv = ["evaluate", "--env", TRAIN_ENV, "--episodes", "2", "--seed", "3"]
     argv += ["--json", str(tmp_path / "eval.json"), "--md", str(tmp_path / "eval.md")]
     for agent in agents:
         argv += ["--agent", agent]
@@ -48,7 +49,7 @@ def test_a_trained_agent_and_a_planner_on_the_same_episodes(
     assert [line["agent"] for line in lines] == ["planner:pg", str(trained)]
 
     report = json.loads((tmp_path / "eval.json").read_text())
-    assert report["env"] == ENV and report["episodes"] == 2 and report["seed"] == 3
+    assert report["env"] == TRAIN_ENV and report["episodes"] == 2 and report["seed"] == 3
     assert report["scene_keywords"] == EVAL_SCENES  # taken from the trained run
     records = report["records"]
     assert [(r["agent"], r["episode"], r["seed"]) for r in records] == [
@@ -59,7 +60,7 @@ def test_a_trained_agent_and_a_planner_on_the_same_episodes(
     ]
     planner, agent = records[:2], records[2:]
     assert {r["env"] for r in planner} == {"ClutterRetrieve-v0"}
-    assert {r["env"] for r in agent} == {ENV}
+    assert {r["env"] for r in agent} == {TRAIN_ENV}
     for mine, theirs in zip(planner, agent, strict=True):
         assert mine["scene"] == theirs["scene"] is not None  # the same scene, episode by episode
     assert planner[0]["scene"] != planner[1]["scene"]
@@ -72,11 +73,11 @@ def test_a_trained_agent_and_a_planner_on_the_same_episodes(
     summary = report["summary"]
     assert summary["planner:pg"]["success_rate"] == 1.0
     assert summary[str(trained)]["mean_length"] == 20.0
-    assert summary[str(trained)]["acts_in"] == ENV
+    assert summary[str(trained)]["acts_in"] == TRAIN_ENV
     table = (tmp_path / "eval.md").read_text()
     assert "| agent | acts in | episodes | success rate |" in table
     assert "| planner:pg | ClutterRetrieve-v0 | 2 | 1.0 |" in table
-    assert f"| {trained} | {ENV} | 2 | 0.0 | 20.0 |" in table
+    assert f"| {trained} | {TRAIN_ENV} | 2 | 0.0 | 20.0 |" in table
 
     # Again: every episode comes from the log, the report is the same.
     code, _, err = run(evaluate_argv(tmp_path, "planner:pg", str(trained)), capsys)
@@ -125,7 +126,7 @@ BAD: list[tuple[str, list[str], tuple[str, ...]]] = [
 def test_bad_input_is_one_line_before_any_work(
     extra: list[str], texts: tuple[str, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    argv = ["evaluate", "--env", ENV, "--json", str(tmp_path / "out" / "e.json")]
+    argv = ["evaluate", "--env", TRAIN_ENV, "--json", str(tmp_path / "out" / "e.json")]
     argv += [a.replace("{tmp}", str(tmp_path)) for a in extra]
     code, out, err = run(argv, capsys)
     assert code == 2 and out == ""

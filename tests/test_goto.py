@@ -148,7 +148,7 @@ def test_evaluation_budget_ends_the_search_whatever_the_time_budget() -> None:
 
     result = plan_goto(
         Q_A, Q_B, near_start_or_goal, KIN.lower, KIN.upper, 60.0, max_evaluations=300
-    )  # fmt: skip
+    )
     assert not result.success
     assert result.reason == "no path found within 300 evaluations"
     # Spent budget makes every state invalid, so the search stops at the 300th check.
@@ -188,7 +188,7 @@ def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
     cut = plan_goto(
         start, goal, free, kinematics.lower, kinematics.upper, 60.0, seed=1, constraint=upright,
         max_evaluations=2 * result.collision_checks,
-    )  # fmt: skip
+    )
     assert cut.reason == f"no path found within {2 * result.collision_checks} evaluations"
     assert result.path is not None and len(result.path) > 2
     tilt = [float(np.abs(kinematics.fk_tcp(q)[:2, 0]).max()) for q in result.path]
@@ -203,5 +203,5 @@ def test_constrained_goto_rejects_endpoints_off_the_manifold() -> None:
     result = plan_goto(
         tilted, tilted + 0.1, lambda q: True, kinematics.lower, kinematics.upper, 1.0,
         constraint=upright_hand(kinematics),
-    )  # fmt: skip
+    )
     assert not result.success and "violates the constraint" in result.reason

@@ -25,11 +25,6 @@ def _square(n: int) -> dict[str, Any]:
     return {"value": n * n}
 
 
-def _slow_square(n: int) -> dict[str, Any]:
-    time.sleep(3.0)
-    return {"value": n * n, "pid": os.getpid()}
-
-
 def _key(n: int) -> str:
     return f"job{n}"
 
@@ -39,7 +34,6 @@ def _crashed(n: int, error: str) -> dict[str, Any]:
 
 
 SQUARES = JobSpec(work=_square, key=_key, crashed=_crashed)
-SLOW_SQUARES = JobSpec(work=_slow_square, key=_key, crashed=_crashed)
 
 
 def test_records_follow_the_jobs_and_a_rerun_resumes_everything(tmp_path: Path) -> None:
@@ -71,7 +65,7 @@ def _count_calls(job: Job) -> dict[str, Any]:
     return {"key": job.key, "scene": job.case.label, "group": job.case.group,
             "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
             "reason": "", "planning_time_s": 0.1, "trials": 0, "execution_successes": 0,
-            "error": ""}  # fmt: skip
+            "error": ""}
 
 
 def test_benchmark_keeps_every_record_after_a_cut_line(
@@ -101,7 +95,15 @@ def _start(script: str, tmp_path: Path) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, "-c", script], cwd=tmp_path, env=env, text=True,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-    )  # fmt: skip
+    )
+
+
+def _started(directory: Path, *jobs: int, timeout: float = 60.0) -> None:
+    """Wait until each of ``jobs`` runs (`gated_square` says so in ``directory``)."""
+    deadline = time.monotonic() + timeout
+    while not all((directory / f"started-{n}").exists() for n in jobs):
+        assert time.monotonic() < deadline, f"jobs {jobs} did not all start within {timeout} s"
+        time.sleep(0.02)
 
 
 def _workers(parent: int, count: int, timeout: float = 60.0) -> list[psutil.Process]:
@@ -116,17 +118,18 @@ def _workers(parent: int, count: int, timeout: float = 60.0) -> list[psutil.Proc
     raise AssertionError(f"no {count} workers started within {timeout} s")
 
 
-RUN_SLOW = (
+RUN_GATED = (
     "from pathlib import Path\n"
     "from agents.runner.jobs import run_jobs\n"
-    "from tests.test_jobs import SLOW_SQUARES\n"
-    "run_jobs([1, 2, 3, 4], SLOW_SQUARES, Path('run.jsonl'), 'c', workers=2)\n"
+    "from tests.helpers import GATED_SQUARES\n"
+    "run_jobs([1, 2, 3, 4], GATED_SQUARES, Path('run.jsonl'), 'c', workers=2)\n"
 )
 
 
 def test_workers_exit_soon_after_their_parent_is_killed(tmp_path: Path) -> None:
-    parent = _start(RUN_SLOW, tmp_path)
+    parent = _start(RUN_GATED, tmp_path)
     workers = _workers(parent.pid, 2)
+    _started(tmp_path, 1, 2)  # never released: only the parent's death ends them
     parent.kill()
     parent.wait()
     _, alive = psutil.wait_procs(workers, timeout=5.0)
@@ -136,11 +139,18 @@ def test_workers_exit_soon_after_their_parent_is_killed(tmp_path: Path) -> None:
 
 
 def test_sigint_to_the_parent_alone_keeps_the_running_jobs(tmp_path: Path) -> None:
-    parent = _start(RUN_SLOW, tmp_path)
-    _workers(parent.pid, 2)
-    time.sleep(1.0)  # both workers are inside their first 3 s job
+    parent = _start(RUN_GATED, tmp_path)
+    _started(tmp_path, 1, 2)  # both workers are inside their first job
     parent.send_signal(signal.SIGINT)
-    _, err = parent.communicate(timeout=60)
+    assert parent.stderr is not None
+    seen = []
+    while not any("interrupted:" in line for line in seen):  # the parent took the SIGINT
+        line = parent.stderr.readline()
+        assert line, "".join(seen)
+        seen.append(line)
+    (tmp_path / "release").touch()
+    _, rest = parent.communicate(timeout=60)
+    err = "".join(seen) + rest
     assert parent.returncode != 0 and "interrupted" in err
     kept = read_log(tmp_path / "run.jsonl", "c")
     assert set(kept) == {"job1", "job2"}  # the two running jobs, none started after

@@ -32,7 +32,7 @@ def test_a_map_is_shipped_for_the_current_robot_and_world(surface: str) -> None:
     grid = default_grid(SURFACES[surface])
     assert built.reach.shape == (
         len(grid.heights), len(grid.headings), len(grid.xs), len(grid.ys)
-    )  # fmt: skip
+    )
     assert 0.1 < built.reach.mean() < 0.9
 
 

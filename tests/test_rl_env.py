@@ -29,9 +29,8 @@ from clutter_gym.model.scene import (
 from clutter_gym.model.world import TABLE
 from clutter_gym.sim.controllers import EE_STEP, READY_HEIGHT, YAW_STEP
 from clutter_gym.sim.task import GRASP_WEIGHT, LIFT_HEIGHT
-from tests.test_env import OPEN_AND_HOLD, still_action
+from tests.helpers import EE_IDS, OPEN_AND_HOLD, still_action
 
-EE_IDS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0")
 REGISTERED_STEPS = {"ClutterRetrieve-v0": 10, "ClutterRetrieveEE-v0": 100}
 
 
@@ -132,7 +131,7 @@ def test_truncation_at_the_registered_max_episode_steps(env_id: str, steps: int)
     ("env_id", "steps"), [("ClutterRetrieve-v0", 13), *((i, 150) for i in EE_IDS)]
 )
 def test_a_larger_max_episode_steps_really_runs_that_many_steps(env_id: str, steps: int) -> None:
-    """The env no longer truncates by itself (it used to at 10 trajectory steps)."""
+    """Truncation is Gymnasium's TimeLimit alone: the env itself never truncates."""
     env = gym.make(env_id, scenes=lone_goal(), max_episode_steps=steps)
     _, taken, _, truncated = rollout(env, lambda obs: still_action(env, obs), seed=0)
     assert (taken, truncated) == (steps, True)

@@ -24,67 +24,26 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from PIL import Image
 
-from agents.cli import main
 from agents.figures.training_curves import Curve, band
 from agents.learning.rl_config import ALGOS, HYPERPARAMS, load_hyperparams
 from agents.learning.runs import TrainedRun, read_run
 from agents.learning.train import EVAL_COLUMNS, read_eval_csv
 from clutter_gym import ENV_IDS
+from tests.helpers import (
+    TAB_BLUE,
+    TINY_PPO,
+    TINY_SAC,
+    TRAIN_ENV,
+    TRAIN_SCENES,
+    WHITE,
+    assert_picture,
+    train_argv,
+    write_config,
+)
+from tests.helpers import run_cli as run
 
 ROOT = Path(__file__).resolve().parents[1]
-ENV = "ClutterRetrieveEEDense-v0"
-SCENES = {"level": "none", "goal_kind": "soda_can", "max_episode_steps": 20}
-TINY: dict[str, Any] = {
-    "policy": "MultiInputPolicy",
-    "n_steps": 64,
-    "batch_size": 32,
-    "n_epochs": 2,
-    "normalize": True,
-    "policy_kwargs": {"net_arch": [16, 16]},
-    "env_kwargs": SCENES,
-}
-"""A PPO entry that trains in seconds."""
-TINY_SAC: dict[str, Any] = {
-    "policy": "MultiInputPolicy",
-    "buffer_size": 5000,
-    "learning_starts": 64,
-    "batch_size": 32,
-    "replay_buffer_class": "HerReplayBuffer",
-    "replay_buffer_kwargs": {"goal_selection_strategy": "future", "copy_info_dict": True},
-    "policy_kwargs": {"net_arch": [16, 16]},
-    "env_kwargs": SCENES,
-}
-
-
-def write_config(path: Path, entry: dict[str, Any] | None = None, env: str = ENV) -> Path:
-    path.write_text(yaml.safe_dump({env: TINY if entry is None else entry}))
-    return path
-
-
-def train_argv(config: Path, out: Path, /, **flags: str | None) -> list[str]:
-    """`train` of the tiny entry; ``flags`` (``n_envs="2"``) override or, with None, remove."""
-    base: dict[str, str | None] = {
-        "algo": "ppo",
-        "env": ENV,
-        "config": str(config),
-        "out": str(out),
-        "steps": "256",
-        "eval_freq": "128",
-        "eval_episodes": "2",
-    }
-    argv = ["train"]
-    for flag, value in {**base, **flags}.items():
-        if value is not None:
-            argv += [f"--{flag.replace('_', '-')}", value]
-    return argv
-
-
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def train_tiny(out: Path, config: Path, capsys: pytest.CaptureFixture[str], **flags: str) -> str:
@@ -111,14 +70,15 @@ BAD_FLAGS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
 ]
 
 BAD_ENTRIES: list[tuple[str, dict[str, Any], tuple[str, ...]]] = [
-    ("unknown key", {**TINY, "learning_rat": 0.1}, ("unknown key 'learning_rat'", "learning_rate")),
-    ("unknown zoo-style key", {**TINY, "frame_stack": 4}, ("'frame_stack'", "n_timesteps")),
-    ("normalize key", {**TINY, "normalize": {"norm_obz": True}}, ("norm_obz", "norm_obs")),
-    ("schedule", {**TINY, "learning_rate": "exp_0.1"}, ("learning_rate", "lin_<number > 0>")),
-    ("activation", {**TINY, "policy_kwargs": {"activation_fn": "swish"}}, ("swish", "tanh")),
-    ("bad value", {**TINY, "batch_size": "big"}, ("ppo cannot use this entry",)),
-    ("env keyword", {**TINY, "env_kwargs": {"level": "extreme"}}, ("env_kwargs", "extreme")),
-    ("budget", {**TINY, "n_timesteps": -5}, ("n_timesteps", "must be >= 1")),
+    ("unknown key", {**TINY_PPO, "learning_rat": 0.1},
+     ("unknown key 'learning_rat'", "learning_rate")),
+    ("unknown zoo-style key", {**TINY_PPO, "frame_stack": 4}, ("'frame_stack'", "n_timesteps")),
+    ("normalize key", {**TINY_PPO, "normalize": {"norm_obz": True}}, ("norm_obz", "norm_obs")),
+    ("schedule", {**TINY_PPO, "learning_rate": "exp_0.1"}, ("learning_rate", "lin_<number > 0>")),
+    ("activation", {**TINY_PPO, "policy_kwargs": {"activation_fn": "swish"}}, ("swish", "tanh")),
+    ("bad value", {**TINY_PPO, "batch_size": "big"}, ("ppo cannot use this entry",)),
+    ("env keyword", {**TINY_PPO, "env_kwargs": {"level": "extreme"}}, ("env_kwargs", "extreme")),
+    ("budget", {**TINY_PPO, "n_timesteps": -5}, ("n_timesteps", "must be >= 1")),
 ]
 
 
@@ -154,7 +114,7 @@ def test_bad_config_entries_are_one_line_before_any_work(
     config = write_config(tmp_path / "tiny.yml", entry)
     code, _, err = run(train_argv(config, tmp_path / "run"), capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1, err
-    assert f"--config {config}" in err and ENV in err
+    assert f"--config {config}" in err and TRAIN_ENV in err
     for text in texts:
         assert text in err, err
     assert not (tmp_path / "run").exists()
@@ -166,7 +126,7 @@ def test_an_env_without_an_entry_names_the_ones_there(
     config = write_config(tmp_path / "tiny.yml", env="ClutterRetrieve-v0")
     code, _, err = run(train_argv(config, tmp_path / "run"), capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1
-    assert f"has no entry for {ENV}; it has: ClutterRetrieve-v0" in err
+    assert f"has no entry for {TRAIN_ENV}; it has: ClutterRetrieve-v0" in err
     (tmp_path / "bad.yml").write_text("a: [1, 2\n")
     code, _, err = run(train_argv(tmp_path / "bad.yml", tmp_path / "run"), capsys)
     assert code == 2 and "not valid YAML" in err and len(err.strip().splitlines()) == 1
@@ -265,7 +225,7 @@ def test_a_tiny_ppo_run_leaves_its_logs_models_and_run_json(
     best = json.loads((out / "best.json").read_text())
     assert best["success_rate"] == max(r["success_rate"] for r in rows)
     assert read_run(out) == TrainedRun(
-        out, "ppo", ENV, SCENES, out / "best_model.zip", out / "best_vecnormalize.pkl"
+        out, "ppo", TRAIN_ENV, TRAIN_SCENES, out / "best_model.zip", out / "best_vecnormalize.pkl"
     )
 
     # The same command again: finished, nothing done. Other settings: refused, in one line.
@@ -285,7 +245,7 @@ def _clutter_gym(argv: list[str]) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [str(script), *argv], text=True, start_new_session=True,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-    )  # fmt: skip
+    )
 
 
 def _interrupt_after_first_checkpoint(argv: list[str], *runs: Path) -> tuple[int, str]:
@@ -393,7 +353,7 @@ def _final_parameters(run: Path) -> dict[str, np.ndarray]:
 def test_a_ray_grid_gives_the_local_grids_numbers(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    config = write_config(tmp_path / "tiny.yml", {**TINY, "normalize": False})
+    config = write_config(tmp_path / "tiny.yml", {**TINY_PPO, "normalize": False})
     local, ray = tmp_path / "local", tmp_path / "ray"
     train_tiny(local, config, capsys, seeds="0,1")
     train_tiny(ray, config, capsys, seeds="0,1", backend="ray", workers="2")
@@ -412,7 +372,7 @@ def test_a_local_grid_puts_each_algorithm_and_seed_in_its_directory(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     config = tmp_path / "both.yml"
-    config.write_text(yaml.safe_dump({ENV: {**TINY, "normalize": False}}))
+    config.write_text(yaml.safe_dump({TRAIN_ENV: {**TINY_PPO, "normalize": False}}))
     out = tmp_path / "grid"
     stdout = train_tiny(out, config, capsys, seeds="0,1", steps="128", eval_freq="128")
     records = [json.loads(line) for line in stdout.splitlines()]
@@ -434,13 +394,13 @@ def _fake_run(directory: Path, algo: str, seed: int, rows: list[tuple[int, float
     directory.mkdir(parents=True)
     lines = [",".join(EVAL_COLUMNS), *(f"{t},{s},0,20" for t, s in rows)]
     (directory / "eval.csv").write_text("\n".join(lines) + "\n")
-    (directory / "run.json").write_text(json.dumps({"algo": algo, "env": ENV, "seed": seed}))
+    (directory / "run.json").write_text(json.dumps({"algo": algo, "env": TRAIN_ENV, "seed": seed}))
     return directory
 
 
 def test_band_is_mean_min_and_max_over_seeds_on_common_steps() -> None:
     def curve(steps: list[int], success: list[float]) -> Curve:
-        return Curve(Path("x"), "ppo", ENV, 0, np.array(steps), np.array(success))
+        return Curve(Path("x"), "ppo", TRAIN_ENV, 0, np.array(steps), np.array(success))
 
     steps, mean, low, high = band([curve([0, 100, 200], [0, 0.5, 1]), curve([0, 200], [0, 0.5])])
     assert steps.tolist() == [0, 100, 200]
@@ -459,8 +419,7 @@ def test_plot_training_writes_a_png_grouped_by_algorithm_and_env(
     code, out, err = run(["plot-training", str(grid), str(other), "--out", str(png)], capsys)
     assert code == 0, err
     assert out.strip() == f"wrote {png} (4 runs)"
-    with Image.open(png) as image:
-        assert image.format == "PNG" and image.size[0] > 400
+    assert_picture(png, min_width=400, colours=(WHITE, TAB_BLUE))
 
 
 @pytest.mark.parametrize(

@@ -45,7 +45,7 @@ def test_sample_count_must_be_positive(n: int) -> None:
 @given(
     st.floats(-1, 1), st.floats(-1, 1), st.floats(-3, 3), st.sampled_from([1, -1]),
     st.floats(-2, 2), st.floats(-2, 2), st.floats(-3, 3),
-)  # fmt: skip
+)
 def test_frames_round_trip(
     ox: float, oy: float, angle: float, hand: int, x: float, y: float, theta: float
 ) -> None:

@@ -19,6 +19,7 @@ from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.world import TABLE
 from planners.capture import sweep_region
 from planners.hand2d import default_aperture
+from tests.helpers import WHITE, assert_picture
 
 
 def test_grid_covers_at_least_the_requested_trials() -> None:
@@ -217,6 +218,6 @@ def test_sweep_cli_small_run_resumes_and_draws(tmp_path: Path) -> None:
     assert log.read_text().count("\n") == lines
     png = tmp_path / "sweep.png"
     capture_figure("can", png, check_validation(report, out, "sweep"), action="sweep")
-    assert png.stat().st_size > 0
+    assert_picture(png, min_width=800, colours=(WHITE, (207, 232, 207)))
     with pytest.raises(ValueError, match="--action sweep"):
         check_validation(report, out, "push-grasp")

@@ -116,7 +116,7 @@ def run_plan(args: argparse.Namespace) -> int:
         "planner", "noise", "samples", "success", "reason", "planning_time_s", "actions",
         "objects_moved", "trials", "execution_successes", "execution_success_rate",
         "execution_failures", "mean_execution_simulated_s", "resumed_trials",
-    )  # fmt: skip
+    )
     print(json.dumps({k: report[k] for k in keys if k in report}))
     if not report["success"]:
         for line in report["blocked_by"][:8]:
@@ -263,7 +263,7 @@ def run_reachability(args: argparse.Namespace) -> int:
         figure = args.figure_dir / f"reachability_{name}.png"
         plot_map(built, SURFACES[name], figure)
         print(json.dumps({"surface": name, "map": str(path), "figure": str(figure),
-                          "reachable_fraction": round(float(built.reach.mean()), 4)}))  # fmt: skip
+                          "reachable_fraction": round(float(built.reach.mean()), 4)}))
     return 0
 
 
@@ -278,7 +278,7 @@ def add_bench(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--primitive-steps", type=COUNT, default=100,
         help="env: ClutterRetrievePrimitive-v0 steps to time (random actions)",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--objects", type=names, default=None, help="capture: comma-separated kinds (default all)"
     )

@@ -27,12 +27,12 @@ def add_train(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--algo", type=names_from(ALGOS, "an algorithm"), required=True,
         help="ppo, sac or tqc; comma-separated for a grid",
-    )  # fmt: skip
+    )
     parser.add_argument("--env", choices=ENV_IDS, required=True, help="the variant's id")
     parser.add_argument(
         "--config", type=input_file, default=None,
         help="hyperparameters YAML keyed by env id (None: agents/hyperparams/<algo>.yml)",
-    )  # fmt: skip
+    )
     parser.add_argument("--steps", type=COUNT, default=None, help="env steps (None: n_timesteps)")
     parser.add_argument("--n-envs", type=COUNT, default=None, help="envs (None: n_envs, or 1)")
     seeds = parser.add_mutually_exclusive_group()
@@ -94,7 +94,7 @@ def add_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--agent", type=_agent, action="append", required=True,
         help="a training directory, planner:NAME (pushing, pg, tsr, pick-and-place) or scripted",
-    )  # fmt: skip
+    )
     parser.add_argument("--env", choices=ENV_IDS, required=True, help="the evaluated variant")
     parser.add_argument("--episodes", type=COUNT, default=10, help="episodes per agent")
     parser.add_argument("--seed", type=SEED, default=0, help="episode k resets with seed + k")

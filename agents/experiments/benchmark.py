@@ -88,7 +88,7 @@ def run_job(job: Job) -> dict[str, Any]:
 def _record(job: Job, **fields: Any) -> BenchmarkRecord:
     return BenchmarkRecord(key=job.key, scene=job.case.label, group=job.case.group,
                            noise=job.case.noise, planner=job.planner, seed=job.seed,
-                           **fields)  # fmt: skip
+                           **fields)
 
 
 def _crashed(job: Job, error: str) -> dict[str, Any]:

@@ -56,7 +56,7 @@ def build_map(name: str, workers: int, log_dir: Path) -> tuple[ReachabilityMap, 
     run = run_jobs(
         jobs, ROWS, log_dir / f"{name}.jobs.jsonl", config_digest(digest), workers=workers,
         desc=f"reachability {name}",
-    )  # fmt: skip
+    )
     failed = [_key(j) for j, r in zip(jobs, run.records, strict=True) if "error" in r]
     if failed:
         raise RuntimeError(f"reachability rows crashed: {', '.join(failed[:5])}")

@@ -22,7 +22,8 @@ from planners.kinds import planner_kind
 TABLE1_NOISES = ("sigma1", "sigma2", "sigma3", "sigma4")
 CLUTTER_LEVELS = ("none", "medium", "high")
 PERTURBED_VARIANTS = 10
-"""Variants of each figure layout in the perturbed suite (issue: at least 10)."""
+"""Variants of each figure layout in the perturbed suite: ten, so that a cell measures the
+layout rather than the luck of one pose."""
 FIGURE_SCENES = (
     "figures/fig3_can_box_dumbbell",
     "figures/fig16_shelf_can_behind_box",

@@ -666,7 +666,7 @@ def validate(
              "angle": s.frame.angle, "start_arm": s.start_arm, "anchor": s.anchor}
             for s in setups
         ],
-    }  # fmt: skip
+    }
     for rotation in rotations:
         report[f"rotation_{rotation:g}deg"] = rotation_summary(
             [t for t in results if t.rotation_deg == rotation], action

@@ -71,7 +71,7 @@ def _success_vs_noise(report: dict[str, Any], path: Path) -> Path:
                 c["execution_success_rate"] if c and c["execution_success_rate"] is not None
                 else float("nan")
                 for c in cells
-            ]  # fmt: skip
+            ]
             ax.plot(x, executed, "s--", color=colour, alpha=0.7, label=f"{planner}: executed")
             paper = PAPER_TABLE1.get((planner, group))
             if paper is not None and report["suite"] == "table1":

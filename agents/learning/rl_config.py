@@ -32,7 +32,7 @@ NOT_IN_YAML = frozenset(("action_noise", "rollout_buffer_class", "rollout_buffer
 """Keywords that take Python objects a YAML file cannot name."""
 NORMALIZE_KEYS = (
     "norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs_keys",
-)  # fmt: skip
+)
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU"}
 REPLAY_BUFFERS = ("ReplayBuffer", "HerReplayBuffer")
 SCHEDULED = ("learning_rate", "clip_range")

@@ -54,11 +54,6 @@ class RearrangePolicy:
     def plan(self) -> Plan | None:
         return self.plans[-1] if self.plans else None
 
-    def use_plan(self, plan: Plan) -> None:
-        """Replay a plan made elsewhere (e.g. once for many trials) instead of planning."""
-        self.plans.append(plan)
-        self._enqueue(plan)
-
     def __call__(self, obs: Observation) -> np.ndarray:
         if not self._queue and not self.failure and (not self.plans or self.closed_loop):
             if not self.plans or not self.plans[-1].success or self._replan_due():

@@ -111,7 +111,7 @@ class BenchmarkRecord:
             "key": self.key, "scene": self.scene, "group": self.group, "noise": self.noise,
             "planner": self.planner, "seed": self.seed, "success": self.success,
             "reason": self.reason, "planning_time_s": self.planning_time_s,
-        }  # fmt: skip
+        }
         if self.plan is not None:
             out.update(asdict(self.plan))
         out.update(trials=self.trials, execution_successes=self.execution_successes)

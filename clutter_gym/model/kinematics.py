@@ -209,8 +209,8 @@ class ArmKinematics:
     ) -> np.ndarray | None:
         """IK by Levenberg-Marquardt descent from `seed` only: a solution continuous with the
         seed, for small moves (`cartesian_path` steps this way; the nearest analytic solution
-        may lie a j3 step away). `agents.experiments.speed.ik_speed` rebuilds the random-restart
-        solver it replaced from it."""
+        may lie a j3 step away). `agents.experiments.speed.ik_speed` builds the random-restart
+        reference solver on it."""
         return self._descend(
             np.asarray(target, dtype=float),
             np.asarray(seed, dtype=float),

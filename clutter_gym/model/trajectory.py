@@ -50,10 +50,6 @@ class Trajectory:
     def end(self) -> np.ndarray:
         return self.segments[-1].path[-1]
 
-    @property
-    def end_hand(self) -> HandCommand:
-        return self.segments[-1].hand
-
     def rows(self) -> np.ndarray:
         """(N, 9) rows of every segment."""
         return np.vstack([s.rows() for s in self.segments])

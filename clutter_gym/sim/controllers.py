@@ -53,8 +53,8 @@ EE_TIMESTEP = 1.0 / 100.0
 1/240 s); scripted side grasps and lifts of cans and bottles went alike (the same 10 of 12) at
 1/120, 1/100 and 1/80 s."""
 EE_SUBSTEPS = 4
-"""Physics steps per end-effector action: 1/25 s, panda-gym's control period (it was 10 steps
-of 1/240 s, 2.5 times the physics for the same 1/24 s)."""
+"""Physics steps per end-effector action: 1/25 s, panda-gym's control period (10 steps of
+1/240 s would cost 2.5 times the physics for about the same period)."""
 EE_LEAD = 0.02
 """m the TCP target may run ahead of the measured TCP along each axis."""
 EE_DAMPING = 0.05

@@ -96,10 +96,6 @@ class Simulator:
         except KeyError:
             raise KeyError(f"no body named {name!r}; bodies: {sorted(self._bodies)}") from None
 
-    @property
-    def body_names(self) -> list[str]:
-        return list(self._bodies)
-
     def load_urdf(
         self, name: str, path: Path, fixed_base: bool = True, merge_fixed_links: bool = False
     ) -> int:
@@ -215,10 +211,6 @@ class Simulator:
         c = self.client
         com_pos, com_quat = c.multiplyTransforms(position, quat, *self._inertial[name])
         c.resetBasePositionAndOrientation(self.body(name), com_pos, com_quat)
-
-    def base_velocity(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        lin, ang = self.client.getBaseVelocity(self.body(name))
-        return np.array(lin), np.array(ang)
 
     def contacts(self, a: str, b: str, link_a: int | None = None) -> list[tuple]:
         """pybullet contact points between two named bodies (optionally one link of `a`)."""

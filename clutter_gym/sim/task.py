@@ -35,8 +35,8 @@ episodic tasks too (Grzes 2017). With Phi <= 0 a step that changes nothing pays
 gamma * Phi(s_N) - Phi(s_0) + (1 - gamma) * sum_{0<t<N} |Phi(s_t)| >= -1 + |Phi(s_0)|, while
 failing at the first step returns -DENSE_FAILURE_COST + |Phi(s_0)|, lower by at least
 DENSE_FAILURE_COST - 1 = 1 whatever the horizon: crashing at once is worse than any amount of
-waiting (the previous dense reward, -0.1 x the distance per step, paid a
-crash better than waiting, and PPO learned to crash). A success ends with
+waiting (a cost of 0.1 x the distance per step would pay a crash better than
+waiting, and PPO learns to crash under it). A success ends with
 DENSE_SUCCESS_BONUS + |Phi(s)| > 0.
 """
 

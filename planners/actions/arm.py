@@ -53,7 +53,7 @@ class Arm:
         budget: Budget,
         ik: IKSolver | None = None,
     ) -> None:
-        """``ik`` replaces the analytic IK (`bench plan` compares the solver it replaced)."""
+        """``ik`` replaces the analytic IK (`bench plan` compares a random-restart reference)."""
         self.surface = surface
         self.settings = settings
         self.stats = stats

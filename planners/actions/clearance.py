@@ -86,7 +86,7 @@ def _near_band(
         near = (
             (local[:, 1] + r > y0) & (local[:, 1] - r < y1) & (local[:, 0] + r > x0)
             & (local[:, 0] - r < x1 + length)
-        )  # fmt: skip
+        )
         if near.any():
             objects.append((name, footprint, local[near]))
     return objects

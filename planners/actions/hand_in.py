@@ -122,7 +122,7 @@ def pick_up_or_release(
         nu = np.concatenate([nu, turning, carried_poses])
     else:
         finish = release(ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z,
-                         nu[-1], avoid)  # fmt: skip
+                         nu[-1], avoid)
         if finish is None:
             return Failure(name, action, "no collision-free retreat after the push")
     return ActionResult(action, name, Trajectory((moved.push, *finish)), nu, held, details)

@@ -122,7 +122,7 @@ def _sweep_at(
     heights = [z for z in _heights(ctx, arm, plan, start_xy, end_xy) if z >= plan.z]
     for z in heights or [plan.z]:
         result = _sweep_motion(ctx, arm, name, avoid, replace(plan, z=z), frame, hand, free,
-                               distance, nu)  # fmt: skip
+                               distance, nu)
         if not isinstance(result, Failure):
             break
     yield result
@@ -379,7 +379,7 @@ class SweepEvolution:
     advanced: float  # m simulated
 
     def chunk(self, i: int, region: SweepRegion, frame: Frame2D, step: float, limit: float,
-              chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+              chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Chunk ``i`` of the sweep, simulated only the first time anyone asks for it."""
         while len(self.chunks) <= i:
             d = min(SWEEP_CHUNK, limit - self.advanced)

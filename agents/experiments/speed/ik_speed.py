@@ -1,10 +1,10 @@
-"""`clutter-gym bench ik`: the analytic IK against the solver it replaced, as JSON.
+"""`clutter-gym bench ik`: the analytic IK against a random-restart reference, as JSON.
 
 Both solve the same seeded level-hand poses over the table (the reachability map's probe: hand
 horizontal at grasp height, any of the 24 headings, the table and self-collision check as
 ``accept``), taking turns per target, alternating which goes first, so that a change of load on
-a shared machine slows both alike. The previous solver, random-restart Levenberg-Marquardt, is
-rebuilt here from `ArmKinematics.solve_ik_local` exactly as it ran before the analytic IK
+a shared machine slows both alike. The reference, random-restart Levenberg-Marquardt, is built
+here on `ArmKinematics.solve_ik_local` with the settings the planner's IK had with it
 (descent from the home pose, then 8 random elbow-up starts, the best of up to 3 accepted
 solutions); nothing else uses it.
 """
@@ -36,7 +36,7 @@ PREVIOUS = "lm_restarts (previous solver)"
 
 Solver = Callable[[np.ndarray], np.ndarray | None]
 
-# The previous solver's settings (planners.actions.arm.IK_RESTARTS and solve_ik's defaults).
+# The reference solver's settings: restarts, iterations and accepted solutions.
 _RESTARTS = 8
 _SOLUTIONS = 3
 _MAX_ITER = 100
@@ -60,7 +60,7 @@ def lm_restarts(
     accept: Callable[[np.ndarray], bool],
     rng: np.random.Generator,
 ) -> np.ndarray | None:
-    """The previous `solve_ik(target, RIGHT_ARM_HOME, rng, accept, max_restarts=8)`."""
+    """The reference: `solve_ik(target, RIGHT_ARM_HOME, rng, accept, max_restarts=8)`."""
     wrist = target[:3, 3] - (hm.HAND_MOUNT_XYZ[2] + hm.HAND_TCP_OFFSET) * target[:3, 2]
     if np.linalg.norm(wrist - kinematics.shoulder) > _MAX_WRIST_REACH:
         return None
@@ -81,7 +81,7 @@ def lm_restarts(
 
 
 def _elbow_up(kinematics: ArmKinematics, rng: np.random.Generator) -> np.ndarray:
-    """The previous random restart: uniform in the limits, elbow above the shoulder-wrist line
+    """The reference's random restart: uniform in the limits, elbow above the shoulder-wrist line
     (the best of 16 draws if none is)."""
     qs = rng.uniform(kinematics.lower, kinematics.upper, size=(16, 7))
     score = np.array([kinematics.elbow_height(q) for q in qs])

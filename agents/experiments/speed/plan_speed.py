@@ -2,7 +2,7 @@
 
 Each scene is planned at each noise level from ``seeds`` different detections (the seed draws the
 detection, the uncertainty samples and OMPL's random numbers), once with the analytic IK and once
-with the solver it replaced (random-restart Levenberg-Marquardt,
+with a reference solver (random-restart Levenberg-Marquardt,
 `agents.experiments.speed.ik_speed`), the two taking turns on the same detection so that the
 machine's load hits both alike. The report gives, per solver, the plans found, every planning time
 and its median, the share of planning time in IK, and how much of the planning time the planner's
