@@ -14,8 +14,16 @@ from typing import Any
 import psutil
 import pytest
 
+from agents.cli import main
 from agents.experiments.benchmark import Job, run_benchmark
-from agents.runner.jobs import JobSpec, code_digest, config_digest, read_log, run_jobs
+from agents.runner.jobs import (
+    JobSpec,
+    code_digest,
+    config_digest,
+    log_lock,
+    read_log,
+    run_jobs,
+)
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
@@ -154,3 +162,32 @@ def test_sigint_to_the_parent_alone_keeps_the_running_jobs(tmp_path: Path) -> No
     assert parent.returncode != 0 and "interrupted" in err
     kept = read_log(tmp_path / "run.jsonl", "c")
     assert set(kept) == {"job1", "job2"}  # the two running jobs, none started after
+
+
+def test_a_second_run_on_the_same_log_says_which_process_uses_it(tmp_path: Path) -> None:
+    parent = _start(RUN_GATED, tmp_path)
+    try:
+        _started(tmp_path, 1, 2)  # the first run holds its log
+        with pytest.raises(ValueError, match=rf"in use by process {parent.pid}\b"):
+            run_jobs([5], SQUARES, tmp_path / "run.jsonl", "c", workers=1)
+    finally:
+        (tmp_path / "release").touch()
+        parent.communicate(timeout=60)
+    assert parent.returncode == 0
+    assert set(read_log(tmp_path / "run.jsonl", "c")) == {"job1", "job2", "job3", "job4"}
+    run_jobs([5], SQUARES, tmp_path / "run.jsonl", "c", workers=1)  # free again
+    assert not (tmp_path / "run.jsonl.lock").exists()
+
+
+def test_the_command_line_refuses_a_log_in_use_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "b.json"
+    argv = ["benchmark", "--suite", "table1", "--planners", "tsr", "--json", str(out),
+            "--scenes-per-group", "1", "--noises", "sigma2", "--trials", "0", "--workers", "1"]
+    with log_lock(out.with_name("b.json.jobs.jsonl")):
+        assert main(argv) == 2
+    _, err = capsys.readouterr()
+    (line,) = err.strip().splitlines()
+    assert line.startswith("clutter-gym benchmark: error: the job log") and str(os.getpid()) in line
+    assert not out.exists()

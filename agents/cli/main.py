@@ -18,7 +18,8 @@ clutter-gym evaluate --agent DIR|planner:pushing|planner:pg|planner:tsr|scripted
 clutter-gym plot-training DIR... --out fig.png
 
 Bad input is one line naming the flag, the value and what is allowed, exit status 2; every
-argument is checked before any work starts.
+argument is checked before any work starts. A job log (the .jsonl beside --json) has one writer:
+a second run given the same --json says in one line which process uses it, exit status 2.
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ runner owns what makes a long run trustworthy, so no command writes it again:
   of losing their parent (a ``kill -9`` of the command), and ignore SIGINT: a Ctrl-C (SIGINT to
   the whole process group, or to the parent alone) lets running jobs finish and keeps their
   records; a second Ctrl-C stops them at once.
+* **One writer per log.** A run holds a lock on ``<log>.lock`` (with its pid) while it runs: a
+  second run given the same log says in one line which process uses it and stops (exit status
+  2 on the command line) instead of running every job again beside it.
 * **Crashes are records.** A worker that dies (a native crash, the OOM killer) breaks the pool;
   the jobs it was running are retried alone in a fresh pool, and one that kills its worker alone
   becomes the caller's crash record. A job that raises becomes one too; the run goes on.
@@ -23,6 +26,7 @@ runner owns what makes a long run trustworthy, so no command writes it again:
 
 from __future__ import annotations
 
+import fcntl
 import functools
 import hashlib
 import json
@@ -35,6 +39,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Generic, TypeVar
@@ -118,6 +123,34 @@ def repair_log(log: Path) -> None:
             handle.truncate(data.rfind(b"\n") + 1)
 
 
+@contextmanager
+def log_lock(log: Path) -> Iterator[None]:
+    """Hold ``<log>.lock`` (an flock, with this process's pid in it) for the block; ValueError
+    naming the process that holds it. The lock goes with the process, however it ends."""
+    path = log.with_name(f"{log.name}.lock")
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise ValueError(
+                f"the job log {log} is in use by process {holder} (another run with the same "
+                "log); wait for it to finish or write elsewhere"
+            ) from None
+        if os.path.exists(path) and os.stat(path).st_ino == os.fstat(fd).st_ino:
+            break  # the file the next run opens is the one we hold
+        os.close(fd)  # a finished run removed the file between our open and our lock
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        os.close(fd)
+
+
 # --------------------------------------------------------------------------------------------
 # Running
 # --------------------------------------------------------------------------------------------
@@ -141,6 +174,22 @@ def run_jobs(
     if len(set(keys)) != len(keys):
         raise ValueError("jobs: two jobs share a key; every job needs its own")
     log.parent.mkdir(parents=True, exist_ok=True)
+    with log_lock(log):
+        return _run_logged(jobs, keys, spec, log, config, workers, backend, desc, describe)
+
+
+def _run_logged(
+    jobs: Sequence[J],
+    keys: list[str],
+    spec: JobSpec[J],
+    log: Path,
+    config: str,
+    workers: int,
+    backend: str,
+    desc: str,
+    describe: Callable[[Record], str] | None,
+) -> JobRun:
+    """`run_jobs` once it holds the log."""
     repair_log(log)
     done = read_log(log, config)
     todo = [job for job, k in zip(jobs, keys, strict=True) if k not in done]
