@@ -13,6 +13,7 @@ from agents.cli.experiments import SUITE_NAMES
 from agents.experiments.benchmark import Job, run_benchmark
 from agents.experiments.suites import SUITES, get_suite
 from agents.figures.benchmark_plots import write_plots
+from agents.runner.markdown import markdown_table
 from tests.helpers import TAB_BLUE, WHITE, assert_picture
 
 SMALL = {
@@ -161,3 +162,13 @@ def test_suites_hold_the_papers_cases() -> None:
 
 def test_the_command_line_offers_every_suite() -> None:
     assert tuple(SUITES) == SUITE_NAMES
+
+
+def test_one_markdown_table_writer() -> None:
+    rows = [("a", 1, None), ("b", 0.5, "x")]
+    assert markdown_table(("name", "value", "note"), rows) == [
+        "| name | value | note |",
+        "|---|---|---|",
+        "| a | 1 | - |",
+        "| b | 0.5 | x |",
+    ]

@@ -45,6 +45,7 @@ from agents.experiments.suites import (
     select_cases,
 )
 from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.markdown import markdown_table
 from agents.runner.records import BenchmarkRecord, ExecutionSummary, PlanFacts
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.noise import resolve_noise
@@ -251,14 +252,10 @@ def _rows(
     groups: list[str],
     planners: list[str],
     text: Callable[[dict[str, Any] | None], str],
-) -> list[str]:
-    """One Markdown row per noise level, one cell per (group, planner)."""
+) -> list[list[str]]:
+    """One row per noise level, one cell per (group, planner)."""
     return [
-        f"| {noise} | "
-        + " | ".join(
-            text(summary.get(p, {}).get(g, {}).get(noise)) for g in groups for p in planners
-        )
-        + " |"
+        [noise, *(text(summary.get(p, {}).get(g, {}).get(noise)) for g in groups for p in planners)]
         for noise in noises
     ]
 
@@ -284,9 +281,8 @@ def _table1_markdown(report: dict[str, Any]) -> str:
     summary, planners = report["summary"], report["planners"]
     noises = sorted({n for p in summary.values() for g in p.values() for n in g})
     groups = [g for g in CLUTTER_LEVELS if any(g in summary[p] for p in planners)]
-    head = "| noise | " + " | ".join(f"{g}: {p}" for g in groups for p in planners) + " |"
+    header = ["noise", *(f"{g}: {p}" for g in groups for p in planners)]
     scenes = max(c["scenes"] for p in summary.values() for g in p.values() for c in g.values())
-    rule = "|---" * (1 + len(groups) * len(planners)) + "|"
     lines = [
         f"# {report['description']}",
         "",
@@ -296,45 +292,30 @@ def _table1_markdown(report: dict[str, Any]) -> str:
         f"s, {report['workers']} workers ({report['backend']}), Python "
         f"{report['machine']['python']}.",
         "",
-        head,
-        rule,
-    ]
-    lines += _rows(summary, noises, groups, planners, _planning_text)
-    lines += [
+        *markdown_table(header, _rows(summary, noises, groups, planners, _planning_text)),
         "",
         f"Execution success of the returned plans ({report['trials']} true worlds per plan "
         "drawn from N(detection, Q); one world without noise):",
         "",
-        head,
-        rule,
+        *markdown_table(header, _rows(summary, noises, groups, planners, _execution_text)),
     ]
-    lines += _rows(summary, noises, groups, planners, _execution_text)
     return "\n".join(lines) + "\n"
 
 
 def _figures_markdown(report: dict[str, Any]) -> str:
-    lines = [
-        f"# {report['description']}",
-        "",
-        "| scene | noise | planner | plan | actions | objects moved | planning time [s] "
-        "| execution [simulated s] | execution success |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
+    header = ("scene", "noise", "planner", "plan", "actions", "objects moved",
+              "planning time [s]", "execution [simulated s]", "execution success")
+    rows = []
     for r in (BenchmarkRecord.from_dict(d) for d in report["records"]):
         plan, execution = r.plan, r.execution
-        moved = ", ".join(plan.objects_moved if plan else []) or "-"
-        executed = f"{r.execution_successes}/{r.trials}" if r.trials else "-"
-        simulated = execution.mean_execution_simulated_s if execution else None
-        lines.append(
-            f"| {r.scene} | {r.noise} | {r.planner} | "
-            f"{'yes' if r.success else 'no: ' + _short(r)} | {plan.actions if plan else '-'} | "
-            f"{moved} | {_or_dash(r.planning_time_s)} | {_or_dash(simulated)} | {executed} |"
-        )
+        rows.append((
+            r.scene, r.noise, r.planner, "yes" if r.success else "no: " + _short(r),
+            plan.actions if plan else None, ", ".join(plan.objects_moved if plan else []) or "-",
+            r.planning_time_s, execution.mean_execution_simulated_s if execution else None,
+            f"{r.execution_successes}/{r.trials}" if r.trials else "-",
+        ))
+    lines = [f"# {report['description']}", "", *markdown_table(header, rows)]
     return "\n".join(lines) + "\n"
-
-
-def _or_dash(value: object) -> str:
-    return "-" if value is None else str(value)
 
 
 def _short(record: BenchmarkRecord) -> str:

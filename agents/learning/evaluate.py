@@ -33,6 +33,7 @@ from agents.learning.runs import TrainedRun, make_env, one_torch_thread
 from agents.policies.rearrange import RearrangePolicy
 from agents.policies.scripted import DirectGraspPolicy
 from agents.runner.jobs import JobSpec, Record, config_digest, run_jobs
+from agents.runner.markdown import markdown_table
 from clutter_gym.media import write_json
 from clutter_gym.model.files import atomic_write_text
 from clutter_gym.model.scene import scene_to_dict
@@ -218,7 +219,7 @@ def run_evaluation(
     }
     write_json(out, report)
     if markdown is not None:
-        atomic_write_text(markdown, markdown_table(report))
+        atomic_write_text(markdown, report_markdown(report))
     crashed = [r for r in run.records if "crashed" in r]
     if crashed:
         print(
@@ -257,26 +258,20 @@ def _mean(values: list[float]) -> float | None:
     return round(float(np.mean(values)), 4) if values else None
 
 
-def markdown_table(report: dict[str, Any]) -> str:
+def report_markdown(report: dict[str, Any]) -> str:
+    """The report's table: one row per agent."""
+    header = ("agent", "acts in", "episodes", "success rate", "mean length [steps]",
+              "mean objects moved", "mean wall time [s]", "crashed")
+    rows = [
+        (label, cell["acts_in"], cell["episodes"], cell["success_rate"], cell["mean_length"],
+         cell["mean_objects_moved"], cell["mean_wall_time_s"], cell["crashed"])
+        for label, cell in report["summary"].items()
+    ]
     lines = [
         f"Evaluation on {report['env']}: {report['episodes']} episodes, reset seeds "
         f"{report['seed']}..{(report['seed'] or 0) + report['episodes'] - 1}, scene keywords "
         f"{json.dumps(report['scene_keywords'], sort_keys=True)}",
         "",
-        "| agent | acts in | episodes | success rate | mean length [steps] "
-        "| mean objects moved | mean wall time [s] | crashed |",
-        "|---|---|---|---|---|---|---|---|",
+        *markdown_table(header, rows),
     ]
-    for label, cell in report["summary"].items():
-        values = [
-            label,
-            cell["acts_in"],
-            cell["episodes"],
-            cell["success_rate"],
-            cell["mean_length"],
-            cell["mean_objects_moved"],
-            cell["mean_wall_time_s"],
-            cell["crashed"],
-        ]
-        lines.append("| " + " | ".join("-" if v is None else str(v) for v in values) + " |")
     return "\n".join(lines) + "\n"

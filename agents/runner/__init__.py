@@ -1,1 +1,1 @@
-"""The one job runner (process pool, crash retry, resumable JSONL log, Ray) and typed records."""
+"""The one job runner (pool, crash retry, resumable JSONL log, Ray), typed records, tables."""
