@@ -18,7 +18,6 @@ import pytest
 from pybullet_utils.bullet_client import BulletClient
 
 from agents.cli import main
-from agents.runner.jobs import JobSpec
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model import herb as hm
 
@@ -203,25 +202,35 @@ def rollout_digest(seed: int, env_id: str, steps: int) -> str:
 GATE_TIMEOUT_S = 60.0
 
 
-def gated_square(n: int) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Square:
+    """A job of the runner's tests: squaring ``n``."""
+
+    n: int
+
+    @property
+    def key(self) -> str:
+        return f"job{self.n}"
+
+    def identity(self) -> dict[str, Any]:
+        return {"n": self.n}
+
+    def crashed(self, error: str) -> dict[str, Any]:
+        return {"error": error}
+
+
+def square(job: Square) -> dict[str, Any]:
+    return {"value": job.n * job.n}
+
+
+def gated_square(job: Square) -> dict[str, Any]:
     """A job that says it started (the file ``started-<n>`` in the working directory) and waits
     for the file ``release`` there: a test knows which jobs run, and decides when they end."""
-    Path(f"started-{n}").touch()
+    Path(f"started-{job.n}").touch()
     deadline = time.monotonic() + GATE_TIMEOUT_S
     while not Path("release").exists() and time.monotonic() < deadline:
         time.sleep(0.02)
-    return {"value": n * n, "pid": os.getpid()}
-
-
-def _job_key(n: int) -> str:
-    return f"job{n}"
-
-
-def _job_crashed(n: int, error: str) -> dict[str, Any]:
-    return {"error": error}
-
-
-GATED_SQUARES = JobSpec(work=gated_square, key=_job_key, crashed=_job_crashed)
+    return {"value": job.n * job.n, "pid": os.getpid()}
 
 
 WHITE = (255, 255, 255)

@@ -17,50 +17,39 @@ import pytest
 from agents.cli import main
 from agents.experiments.benchmark import Job, run_benchmark
 from agents.runner.jobs import (
-    JobSpec,
     code_digest,
     config_digest,
     log_lock,
     read_log,
     run_jobs,
 )
+from tests.helpers import Square, square
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
 
 
-def _square(n: int) -> dict[str, Any]:
-    return {"value": n * n}
-
-
-def _key(n: int) -> str:
-    return f"job{n}"
-
-
-def _crashed(n: int, error: str) -> dict[str, Any]:
-    return {"error": error}
-
-
-SQUARES = JobSpec(work=_square, key=_key, crashed=_crashed)
+def squares(*ns: int) -> list[Square]:
+    return [Square(n) for n in ns]
 
 
 def test_records_follow_the_jobs_and_a_rerun_resumes_everything(tmp_path: Path) -> None:
     log = tmp_path / "run.jsonl"
-    first = run_jobs([3, 1, 2], SQUARES, log, "c1", workers=2)
+    first = run_jobs(squares(3, 1, 2), square, log, "c1", workers=2)
     assert [r["value"] for r in first.records] == [9, 1, 4]
     assert (first.resumed, first.ran) == (0, 3)
-    again = run_jobs([3, 1, 2, 4], SQUARES, log, "c1", workers=1)
+    again = run_jobs(squares(3, 1, 2, 4), square, log, "c1", workers=1)
     assert (again.resumed, again.ran) == (3, 1)
-    other = run_jobs([3], SQUARES, log, "c2", workers=1)  # other settings or code: not resumed
+    other = run_jobs(squares(3), square, log, "c2", workers=1)  # other settings or code: afresh
     assert other.resumed == 0
 
 
 def test_a_cut_last_line_is_cut_off_before_the_next_record(tmp_path: Path) -> None:
     log = tmp_path / "run.jsonl"
-    run_jobs([1, 2], SQUARES, log, "c", workers=1)
+    run_jobs(squares(1, 2), square, log, "c", workers=1)
     with log.open("a") as handle:
         handle.write('{"config": "c", "key": "job3", "rec')  # a crash mid-write
-    run_jobs([1, 2, 3], SQUARES, log, "c", workers=1)
+    run_jobs(squares(1, 2, 3), square, log, "c", workers=1)
     lines = log.read_text().splitlines()
     assert all(json.loads(line) for line in lines)  # no record glued to a broken line
     assert set(read_log(log, "c")) == {"job1", "job2", "job3"}
@@ -129,8 +118,8 @@ def _workers(parent: int, count: int, timeout: float = 60.0) -> list[psutil.Proc
 RUN_GATED = (
     "from pathlib import Path\n"
     "from agents.runner.jobs import run_jobs\n"
-    "from tests.helpers import GATED_SQUARES\n"
-    "run_jobs([1, 2, 3, 4], GATED_SQUARES, Path('run.jsonl'), 'c', workers=2)\n"
+    "from tests.helpers import Square, gated_square\n"
+    "run_jobs([Square(n) for n in (1, 2, 3, 4)], gated_square, Path('run.jsonl'), 'c', workers=2)\n"
 )
 
 
@@ -169,13 +158,13 @@ def test_a_second_run_on_the_same_log_says_which_process_uses_it(tmp_path: Path)
     try:
         _started(tmp_path, 1, 2)  # the first run holds its log
         with pytest.raises(ValueError, match=rf"in use by process {parent.pid}\b"):
-            run_jobs([5], SQUARES, tmp_path / "run.jsonl", "c", workers=1)
+            run_jobs(squares(5), square, tmp_path / "run.jsonl", "c", workers=1)
     finally:
         (tmp_path / "release").touch()
         parent.communicate(timeout=60)
     assert parent.returncode == 0
     assert set(read_log(tmp_path / "run.jsonl", "c")) == {"job1", "job2", "job3", "job4"}
-    run_jobs([5], SQUARES, tmp_path / "run.jsonl", "c", workers=1)  # free again
+    run_jobs(squares(5), square, tmp_path / "run.jsonl", "c", workers=1)  # free again
     assert not (tmp_path / "run.jsonl.lock").exists()
 
 

@@ -44,7 +44,7 @@ from agents.experiments.suites import (
     get_suite,
     select_cases,
 )
-from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.jobs import config_digest, run_jobs
 from agents.runner.markdown import markdown_table
 from agents.runner.records import BenchmarkRecord, ExecutionSummary, PlanFacts
 from clutter_gym.model.files import atomic_write_text
@@ -66,6 +66,18 @@ class Job:
     def key(self) -> str:
         return f"{self.case.label}/{self.case.noise}/{self.planner}/seed{self.seed}"
 
+    def identity(self) -> dict[str, Any]:
+        return {"key": self.key, "scene": self.case.label, "group": self.case.group,
+                "noise": self.case.noise, "planner": self.planner, "seed": self.seed}
+
+    def crashed(self, error: str) -> dict[str, Any]:
+        """The record of a job that raised or killed its worker: a failed plan with the error."""
+        crashed = BenchmarkRecord(
+            **self.identity(), success=False, reason=f"crashed: {error}", planning_time_s=None,
+            error=error,
+        )
+        return crashed.as_dict()
+
     @property
     def case_seed(self) -> int:
         """The detection's, the samples', the worlds' and the planner's seed: the same for
@@ -83,21 +95,7 @@ def run_job(job: Job) -> dict[str, Any]:
     try:
         return _plan_and_execute(job).as_dict()
     except Exception as error:
-        return _crashed(job, f"{type(error).__name__}: {error}")
-
-
-def _record(job: Job, **fields: Any) -> BenchmarkRecord:
-    return BenchmarkRecord(key=job.key, scene=job.case.label, group=job.case.group,
-                           noise=job.case.noise, planner=job.planner, seed=job.seed,
-                           **fields)
-
-
-def _crashed(job: Job, error: str) -> dict[str, Any]:
-    """The record of a job that raised or killed its worker."""
-    crashed = _record(
-        job, success=False, reason=f"crashed: {error}", planning_time_s=None, error=error
-    )
-    return crashed.as_dict()
+        return job.crashed(f"{type(error).__name__}: {error}")
 
 
 def _plan_and_execute(job: Job) -> BenchmarkRecord:
@@ -106,8 +104,8 @@ def _plan_and_execute(job: Job) -> BenchmarkRecord:
     detection = detect_scene(scene, rng)
     settings = PlannerSettings(time_budget=job.time_budget, seed=job.case_seed)
     plan, _ = plan_from_detection(scene, detection, job.planner, settings, None, rng)
-    record = _record(
-        job,
+    record = BenchmarkRecord(
+        **job.identity(),
         success=plan.success,
         reason=plan.reason,
         planning_time_s=round(plan.planning_time, 4),
@@ -130,10 +128,6 @@ def _plan_and_execute(job: Job) -> BenchmarkRecord:
 # --------------------------------------------------------------------------------------------
 # The run: resumable log, report, table
 # --------------------------------------------------------------------------------------------
-def _job_key(job: Job) -> str:
-    return job.key
-
-
 def run_benchmark(
     suite_name: str,
     planners: Sequence[str] | None = None,
@@ -160,7 +154,7 @@ def run_benchmark(
     jobs = [Job(c, p, seed, trials, time_budget) for c in cases for p in names]
     run = run_jobs(
         jobs,
-        JobSpec(work=work, key=_job_key, crashed=_crashed),
+        work,
         out.with_name(f"{out.name}.jobs.jsonl"),
         config_digest({"trials": trials, "time_budget": time_budget}),
         workers=workers,

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.jobs import config_digest, run_jobs
 from agents.runner.records import ExecutionSummary, TrialOutcome
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
@@ -142,24 +142,27 @@ def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> TrialOu
         return TrialOutcome.crashed(repr(error))
 
 
-TrialJob = tuple[int, Scene, list[np.ndarray]]
-"""One execution: its index (also the env seed), the true world and the plan's env actions."""
+@dataclass(frozen=True)
+class TrialJob:
+    """One execution: its index (also the env seed), the true world and the plan's env actions."""
+
+    index: int
+    world: Scene
+    actions: list[np.ndarray]
+
+    @property
+    def key(self) -> str:
+        return str(self.index)
+
+    def identity(self) -> dict[str, Any]:
+        return {"trial": self.index}
+
+    def crashed(self, error: str) -> dict[str, Any]:
+        return TrialOutcome.crashed(error).as_dict()
 
 
 def _run_trial(job: TrialJob) -> dict[str, Any]:
-    index, world, actions = job
-    return execute_trial(world, actions, seed=index).as_dict()
-
-
-def _trial_key(job: TrialJob) -> str:
-    return str(job[0])
-
-
-def _trial_crashed(job: TrialJob, error: str) -> dict[str, Any]:
-    return TrialOutcome.crashed(error).as_dict()
-
-
-TRIALS = JobSpec(work=_run_trial, key=_trial_key, crashed=_trial_crashed)
+    return execute_trial(job.world, job.actions, seed=job.index).as_dict()
 
 
 def run_plan(
@@ -225,8 +228,8 @@ def _trials(
     ).hexdigest()
     base = out or Path("out/plan.json")
     log = base.with_name(f"{base.name}.trials.jsonl")
-    jobs = [(i, w, actions) for i, w in enumerate(worlds)]
-    run = run_jobs(jobs, TRIALS, log, config_digest(plan), workers=workers, desc="execute")
+    jobs = [TrialJob(i, w, actions) for i, w in enumerate(worlds)]
+    run = run_jobs(jobs, _run_trial, log, config_digest(plan), workers=workers, desc="execute")
     outcomes = [TrialOutcome.from_dict(r) for r in run.records]
     return {
         **ExecutionSummary.of(outcomes).as_dict(),

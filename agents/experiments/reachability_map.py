@@ -10,12 +10,13 @@ on; the figure shows, for each height, how many headings reach each hand_base po
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.jobs import config_digest, run_jobs
 from clutter_gym.model.files import atomic_write_bytes
 from clutter_gym.model.reachability import (
     SHIPPED_DIR,
@@ -26,25 +27,29 @@ from clutter_gym.model.reachability import (
 )
 from clutter_gym.model.world import SURFACES
 
-RowJob = tuple[str, int, int]
-"""(surface, height index, row index)."""
+
+@dataclass(frozen=True)
+class RowJob:
+    """One row of x of the map at one height of one support."""
+
+    surface: str
+    height: int  # index into the grid's heights
+    row: int  # index into the grid's xs
+
+    @property
+    def key(self) -> str:
+        return f"{self.surface}/h{self.height}/x{self.row}"
+
+    def identity(self) -> dict[str, Any]:
+        return {"surface": self.surface, "height": self.height, "row": self.row}
+
+    def crashed(self, error: str) -> dict[str, Any]:
+        return {"error": error}
 
 
 def _row(job: RowJob) -> dict[str, Any]:
-    name, height, row = job
-    surface = SURFACES[name]
-    return {"reach": reachable_row(surface, default_grid(surface), height, row).tolist()}
-
-
-def _key(job: RowJob) -> str:
-    return f"{job[0]}/h{job[1]}/x{job[2]}"
-
-
-def _crashed(job: RowJob, error: str) -> dict[str, Any]:
-    return {"error": error}
-
-
-ROWS = JobSpec(work=_row, key=_key, crashed=_crashed)
+    surface = SURFACES[job.surface]
+    return {"reach": reachable_row(surface, default_grid(surface), job.height, job.row).tolist()}
 
 
 def build_map(name: str, workers: int, log_dir: Path) -> tuple[ReachabilityMap, Path]:
@@ -52,17 +57,17 @@ def build_map(name: str, workers: int, log_dir: Path) -> tuple[ReachabilityMap, 
     surface = SURFACES[name]
     grid = default_grid(surface)
     digest = map_digest(surface, grid)
-    jobs = [(name, h, i) for h in range(len(grid.heights)) for i in range(len(grid.xs))]
+    jobs = [RowJob(name, h, i) for h in range(len(grid.heights)) for i in range(len(grid.xs))]
     run = run_jobs(
-        jobs, ROWS, log_dir / f"{name}.jobs.jsonl", config_digest(digest), workers=workers,
+        jobs, _row, log_dir / f"{name}.jobs.jsonl", config_digest(digest), workers=workers,
         desc=f"reachability {name}",
     )
-    failed = [_key(j) for j, r in zip(jobs, run.records, strict=True) if "error" in r]
+    failed = [j.key for j, r in zip(jobs, run.records, strict=True) if "error" in r]
     if failed:
         raise RuntimeError(f"reachability rows crashed: {', '.join(failed[:5])}")
     reach = np.zeros((len(grid.heights), len(grid.headings), len(grid.xs), len(grid.ys)), bool)
-    for (_, h, i), record in zip(jobs, run.records, strict=True):
-        reach[h, :, i, :] = np.asarray(record["reach"], dtype=bool)
+    for job, record in zip(jobs, run.records, strict=True):
+        reach[job.height, :, job.row, :] = np.asarray(record["reach"], dtype=bool)
     built = ReachabilityMap(name, grid, reach)
     path = SHIPPED_DIR / f"{name}_{digest}.npz"
     for stale in SHIPPED_DIR.glob(f"{name}_*.npz"):

@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from agents.experiments.capture_objects import ACTIONS, resolve_kind
-from agents.runner.jobs import JobSpec, config_digest, run_jobs
+from agents.runner.jobs import config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
 from clutter_gym.model import herb as hm
@@ -503,8 +503,24 @@ def judge_sweep(end: SweepEnd, span: tuple[float, float]) -> str:
     return "success"
 
 
-ValidationJob = tuple[int, str, Setup, tuple[float, float, float]]
-"""One trial: its index, the object kind, its set-up and the pose."""
+@dataclass(frozen=True)
+class ValidationJob:
+    """One trial: its index, the object kind, its set-up and the pose (region frame)."""
+
+    index: int
+    kind: str
+    setup: Setup
+    pose: tuple[float, float, float]
+
+    @property
+    def key(self) -> str:
+        return str(self.index)
+
+    def identity(self) -> dict[str, Any]:
+        return {"trial": self.index}
+
+    def crashed(self, error: str) -> dict[str, Any]:
+        return {"outcome": f"crashed: {error}"}
 
 
 @functools.cache
@@ -514,19 +530,7 @@ def _process_env() -> ClutterRetrieveEnv:
 
 
 def _run_validation(job: ValidationJob) -> dict[str, Any]:
-    _, kind, setup, pose = job
-    return {"outcome": run_trial(_process_env(), kind, setup, pose)}
-
-
-def _validation_key(job: ValidationJob) -> str:
-    return str(job[0])
-
-
-def _validation_crashed(job: ValidationJob, error: str) -> dict[str, Any]:
-    return {"outcome": f"crashed: {error}"}
-
-
-VALIDATION = JobSpec(work=_run_validation, key=_validation_key, crashed=_validation_crashed)
+    return {"outcome": run_trial(_process_env(), job.kind, job.setup, job.pose)}
 
 
 def summarize(trials: Sequence[Trial]) -> dict[str, Any]:
@@ -591,7 +595,7 @@ def _jobs(
         for j, p in enumerate(poses):
             pose = (float(p[0]), float(p[1]), float(p[2]))
             setup = next((s for s in setups if not runnable(spec, s, pose)), setups[0])
-            jobs.append((i * len(poses) + j, spec.kind, setup, pose))
+            jobs.append(ValidationJob(i * len(poses) + j, spec.kind, setup, pose))
     return region, poses, [s for setups in runs for s in setups], jobs
 
 
@@ -639,20 +643,21 @@ def validate(
         ).hexdigest()
     )
     log = out.with_name(f"{out.name}.trials.jsonl")
-    run = run_jobs(jobs, VALIDATION, log, config, workers=workers, desc=f"validate {spec.kind}")
+    desc = f"validate {spec.kind}"
+    run = run_jobs(jobs, _run_validation, log, config, workers=workers, desc=desc)
     start = {id(s): i for i, s in enumerate(setups)}
     results = [
         Trial(
-            index,
-            setup.rotation_deg,
-            pose,
-            bool(predicted[index % len(poses)]),
+            job.index,
+            job.setup.rotation_deg,
+            job.pose,
+            bool(predicted[job.index % len(poses)]),
             r["outcome"],
-            setup.handedness,
-            start[id(setup)],
-            bool(edge[index % len(poses)]),
+            job.setup.handedness,
+            start[id(job.setup)],
+            bool(edge[job.index % len(poses)]),
         )
-        for (index, _, setup, pose), r in zip(jobs, run.records, strict=True)
+        for job, r in zip(jobs, run.records, strict=True)
     ]
     report: dict[str, Any] = {
         "object": spec.kind,

@@ -32,7 +32,7 @@ from agents.learning.episodes import Act, env_scene, run_episode
 from agents.learning.runs import TrainedRun, make_env, one_torch_thread
 from agents.policies.rearrange import RearrangePolicy
 from agents.policies.scripted import DirectGraspPolicy
-from agents.runner.jobs import JobSpec, Record, config_digest, run_jobs
+from agents.runner.jobs import Record, config_digest, run_jobs
 from agents.runner.markdown import markdown_table
 from clutter_gym.media import write_json
 from clutter_gym.model.files import atomic_write_text
@@ -75,6 +75,13 @@ class EvalJob:
     @property
     def key(self) -> str:
         return f"{self.agent.label}#{self.episode}"
+
+    def identity(self) -> Record:
+        return {"agent": self.agent.label, "episode": self.episode, "seed": self.seed,
+                "env": self.env_id}
+
+    def crashed(self, error: str) -> Record:
+        return {**self.identity(), "success": False, "crashed": error}
 
 
 def plan_episodes(
@@ -149,23 +156,11 @@ def episode_record(job: EvalJob) -> Record:
     with one_torch_thread():
         episode = run_episode(env, _make_act(job, env), job.seed)
     return {
-        **_identity(job),
+        **job.identity(),
         **episode.as_dict(),
         "planning_failure": str(getattr(episode.act, "failure", "")),
         "scene": _scene_digest(env),
     }
-
-
-def _identity(job: EvalJob) -> Record:
-    return {"agent": job.agent.label, "episode": job.episode, "seed": job.seed, "env": job.env_id}
-
-
-def _crashed(job: EvalJob, error: str) -> Record:
-    return {**_identity(job), "success": False, "crashed": error}
-
-
-def _key(job: EvalJob) -> str:
-    return job.key
 
 
 def _scene_digest(env: gym.Env) -> str | None:
@@ -176,8 +171,6 @@ def _scene_digest(env: gym.Env) -> str | None:
     text = json.dumps(scene_to_dict(scene), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
-
-EPISODES = JobSpec(work=episode_record, key=_key, crashed=_crashed)
 
 
 # --------------------------------------------------------------------------------------------
@@ -199,7 +192,7 @@ def run_evaluation(
     }
     run = run_jobs(
         jobs,
-        EPISODES,
+        episode_record,
         out.with_name(f"{out.name}.jobs.jsonl"),
         config_digest(settings),
         workers=workers,

@@ -61,7 +61,7 @@ from agents.learning.rl_config import (
     vec_env_tools,
 )
 from agents.learning.runs import one_torch_thread
-from agents.runner.jobs import FirstInterrupt, JobSpec, Record, config_digest, run_jobs
+from agents.runner.jobs import FirstInterrupt, Record, config_digest, run_jobs
 from clutter_gym.model.files import atomic_write_text
 
 EVAL_SEED = 1_000_000
@@ -91,6 +91,12 @@ class TrainJob:
     @property
     def key(self) -> str:
         return f"{self.algo}_seed{self.seed}"
+
+    def identity(self) -> Record:
+        return {"algo": self.algo, "env": self.env_id, "seed": self.seed, "dir": self.out}
+
+    def crashed(self, error: str) -> Record:
+        return {**self.identity(), "status": "crashed", "error": error}
 
     def settings(self) -> dict[str, Any]:
         """What a run's directory must match to be resumed (not where the config came from)."""
@@ -242,11 +248,10 @@ def run_grid(
     trains here, without the runner's progress bar over its own."""
     if len(jobs) == 1 and backend == "local":
         return [train_run(jobs[0])]
-    spec = JobSpec(work=train_run, key=_key, crashed=_crashed)
     invocation = {"runs": [j.settings() for j in jobs], "started": time.time_ns()}
     run = run_jobs(
         jobs,
-        spec,
+        train_run,
         log_dir / JOBS_LOG,
         config_digest(invocation),
         workers=workers,
@@ -255,18 +260,6 @@ def run_grid(
         describe=lambda record: str(record.get("status")),
     )
     return run.records
-
-
-def _key(job: TrainJob) -> str:
-    return job.key
-
-
-def _crashed(job: TrainJob, error: str) -> Record:
-    return {**_identity(job), "status": "crashed", "error": error}
-
-
-def _identity(job: TrainJob) -> Record:
-    return {"algo": job.algo, "env": job.env_id, "seed": job.seed, "dir": job.out}
 
 
 # --------------------------------------------------------------------------------------------
@@ -310,7 +303,7 @@ def _summary(job: TrainJob, status: str) -> Record:
     checkpoint = _latest(directory)
     best = _read_json(directory / files.BEST_JSON)
     return {
-        **_identity(job),
+        **job.identity(),
         "status": status,
         "timesteps": checkpoint["steps"] if checkpoint else 0,
         "final_success_rate": rows[-1]["success_rate"] if rows else None,

@@ -1,7 +1,9 @@
 """One job runner for every long command (`benchmark`, `plan --execute`, `validate-capture`).
 
-A run is a list of independent jobs and one function that turns a job into a JSON record. The
-runner owns what makes a long run trustworthy, so no command writes it again:
+A run is a list of independent jobs and one function that turns a job into a JSON record. Every
+job type follows one protocol (`Job`): its key in the log, its identity (the fields that say
+which job a record is of) and its crash record. The runner owns what makes a long run
+trustworthy, so no command writes it again:
 
 * **Nothing lost.** Every finished record is appended to a JSONL log at once; a rerun with the
   same jobs skips what the log holds. A line cut by a crash mid-write is cut off the log before
@@ -18,7 +20,7 @@ runner owns what makes a long run trustworthy, so no command writes it again:
   2 on the command line) instead of running every job again beside it.
 * **Crashes are records.** A worker that dies (a native crash, the OOM killer) breaks the pool;
   the jobs it was running are retried alone in a fresh pool, and one that kills its worker alone
-  becomes the caller's crash record. A job that raises becomes one too; the run goes on.
+  becomes its crash record (`Job.crashed`). A job that raises becomes one too; the run goes on.
 
 `backend="ray"` runs the same jobs as Ray tasks (the `ray` extra): on the cluster at
 ``RAY_ADDRESS``, else on a local Ray with ``workers`` CPUs.
@@ -42,14 +44,14 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from tqdm import tqdm
 
 import clutter_gym
 
 Record = dict[str, Any]
-J = TypeVar("J")
+J = TypeVar("J", bound="Job")
 BACKENDS = ("local", "ray")
 PARENT_POLL_S = 0.5
 """How often a worker checks that the process that started it is still alive."""
@@ -85,14 +87,22 @@ class JobRun:
     ran: int
 
 
-@dataclass(frozen=True)
-class JobSpec(Generic[J]):
-    """What the runner needs to know about one kind of job (all module-level, picklable)."""
+class Job(Protocol):
+    """What the runner needs of a job: every job type (a picklable module-level class) says
+    which job it is and what its record is when it crashes; the work is a separate function."""
 
-    work: Callable[[J], Record]
-    key: Callable[[J], str]
-    crashed: Callable[[J, str], Record]
-    """The record of a job that raised or killed its worker, from the error text."""
+    @property
+    def key(self) -> str:
+        """The job's key in the log: unique among the jobs of a run."""
+        ...
+
+    def identity(self) -> Record:
+        """The fields that say which job a record is of."""
+        ...
+
+    def crashed(self, error: str) -> Record:
+        """The record of the job when it raised or killed its worker, from the error text."""
+        ...
 
 
 # --------------------------------------------------------------------------------------------
@@ -156,7 +166,7 @@ def log_lock(log: Path) -> Iterator[None]:
 # --------------------------------------------------------------------------------------------
 def run_jobs(
     jobs: Sequence[J],
-    spec: JobSpec[J],
+    work: Callable[[J], Record],
     log: Path,
     config: str,
     *,
@@ -165,23 +175,24 @@ def run_jobs(
     desc: str = "jobs",
     describe: Callable[[Record], str] | None = None,
 ) -> JobRun:
-    """Run (or resume) ``jobs``; every record is in ``log`` before this returns or raises."""
+    """Run (or resume) ``jobs``, each by ``work`` (a picklable module-level function); every
+    record is in ``log`` before this returns or raises."""
     if backend not in BACKENDS:
         raise ValueError(f"backend: {backend!r} is unknown; allowed: {', '.join(BACKENDS)}")
     if workers < 1:
         raise ValueError(f"workers: {workers}; must be >= 1")
-    keys = [spec.key(job) for job in jobs]
+    keys = [job.key for job in jobs]
     if len(set(keys)) != len(keys):
         raise ValueError("jobs: two jobs share a key; every job needs its own")
     log.parent.mkdir(parents=True, exist_ok=True)
     with log_lock(log):
-        return _run_logged(jobs, keys, spec, log, config, workers, backend, desc, describe)
+        return _run_logged(jobs, keys, work, log, config, workers, backend, desc, describe)
 
 
 def _run_logged(
     jobs: Sequence[J],
     keys: list[str],
-    spec: JobSpec[J],
+    work: Callable[[J], Record],
     log: Path,
     config: str,
     workers: int,
@@ -204,8 +215,8 @@ def _run_logged(
         log.open("a") as handle,
         tqdm(total=len(jobs), initial=resumed, desc=desc, unit="job") as bar,
     ):
-        for job, record in runner(todo, spec, workers):
-            key = spec.key(job)
+        for job, record in runner(todo, work, workers):
+            key = job.key
             handle.write(json.dumps({"config": config, "key": key, "record": record}) + "\n")
             handle.flush()
             done[key] = record
@@ -215,23 +226,23 @@ def _run_logged(
     return JobRun([done[k] for k in keys], resumed, len(todo))
 
 
-def _guarded(spec: JobSpec[J], job: J) -> Record:
+def _guarded(work: Callable[[J], Record], job: J) -> Record:
     """The job's record; an exception it raises becomes its crash record."""
     try:
-        return spec.work(job)
+        return work(job)
     except Exception as error:
-        return spec.crashed(job, f"{type(error).__name__}: {error}")
+        return job.crashed(f"{type(error).__name__}: {error}")
 
 
 Finished = Iterator[tuple[Any, Record]]
 
 
-def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
+def _local(jobs: list[J], work: Callable[[J], Record], workers: int) -> Finished:
     """In this process for one worker; else a spawn pool with at most ``workers`` jobs in
     flight, fresh pools after a worker died (its jobs retried one at a time)."""
     if workers <= 1:
         for job in jobs:
-            yield job, _guarded(spec, job)
+            yield job, _guarded(work, job)
         return
     queue, suspects = list(jobs), list[J]()
     with FirstInterrupt("finishing the running jobs and keeping their results") as interrupt:
@@ -245,7 +256,7 @@ def _local(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
                 initargs=(os.getpid(),),
             )
             try:
-                yield from _drain(pool, batch, limit, spec, suspects, interrupt)
+                yield from _drain(pool, batch, limit, work, suspects, interrupt)
             except BaseException:  # a second Ctrl-C, or the consumer gave up: stop them now
                 _terminate(pool)
                 raise
@@ -260,7 +271,7 @@ def _drain(
     pool: ProcessPoolExecutor,
     batch: list[J],
     limit: int,
-    spec: JobSpec[J],
+    work: Callable[[J], Record],
     suspects: list[J],
     interrupt: FirstInterrupt,
 ) -> Finished:
@@ -272,7 +283,7 @@ def _drain(
     while (batch and not interrupt.seen) or running:
         while batch and not interrupt.seen and len(running) < limit:
             job = batch.pop(0)
-            running[pool.submit(_guarded, spec, job)] = job
+            running[pool.submit(_guarded, work, job)] = job
         finished, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
         for future in finished:
             job = running.pop(future)
@@ -280,7 +291,7 @@ def _drain(
                 record = future.result()
             except BrokenProcessPool:
                 if alone:
-                    yield job, spec.crashed(job, "the worker process died running it")
+                    yield job, job.crashed("the worker process died running it")
                 else:
                     suspects.append(job)
                 suspects.extend(running.values())  # empty when alone
@@ -333,7 +344,7 @@ def _exit_with_parent(parent: int) -> None:
     os._exit(1)
 
 
-def _ray(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
+def _ray(jobs: list[J], work: Callable[[J], Record], workers: int) -> Finished:
     """The same jobs as Ray tasks; a task whose worker dies is retried once, then crashed."""
     try:
         import ray
@@ -348,14 +359,14 @@ def _ray(jobs: list[J], spec: JobSpec[J], workers: int) -> Finished:
         started = True
     try:
         remote: Any = ray.remote(num_cpus=1, max_retries=1)(_guarded)
-        pending = {remote.remote(spec, job): job for job in jobs}
+        pending = {remote.remote(work, job): job for job in jobs}
         while pending:
             (ready,), _ = ray.wait(list(pending), num_returns=1)
             job = pending.pop(ready)
             try:
                 yield job, ray.get(ready)
             except ray.exceptions.RayError as error:
-                yield job, spec.crashed(job, f"{type(error).__name__}: {error}".splitlines()[0])
+                yield job, job.crashed(f"{type(error).__name__}: {error}".splitlines()[0])
     finally:
         if started:
             ray.shutdown()
