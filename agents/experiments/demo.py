@@ -12,6 +12,7 @@ from tqdm import tqdm
 
 import clutter_gym  # noqa: F401  (registers the env)
 from agents.policies.rearrange import RearrangePolicy
+from agents.policies.rollout import roll_out
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
 from clutter_gym.model.scene import Scene, load_scene, scene_to_dict, shipped_scene
@@ -43,7 +44,6 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
         policy = RearrangePolicy(
             base.waypoints, settings=settings, names=info["object_names"], seed=seed
         )
-        steps, reward_sum, terminated, truncated = 0, 0.0, False, False
         with (
             gif_writer(gif, fps=10) as frames,
             tqdm(desc="demo (simulated s)", bar_format="{desc}: {n:.1f} [{elapsed}]") as bar,
@@ -54,16 +54,12 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
                 bar.update(frames.frames * FRAME_EVERY * base.sim.timestep - bar.n)
 
             base.start_recording(record, FRAME_EVERY)
-            while not (terminated or truncated):
-                obs, reward, terminated, truncated, info = env.step(policy(obs))
-                steps += 1
-                reward_sum += float(reward)
-                if policy.failure:
-                    break
+            rollout = roll_out(env, obs, policy, info, stop=lambda: bool(policy.failure))
             base.stop_recording()
         timestep = base.sim.timestep
     finally:
         env.close()
+    info = rollout.info
     goal_index = list(info["object_names"]).index(chosen.goal.object)
     summary: dict[str, Any] = {
         "scene": scene_to_dict(chosen),
@@ -74,8 +70,8 @@ def run_demo(scene: str | Path | None, out_dir: Path, seed: int = 0) -> dict[str
         "failure": info["failure"],
         "goal_held": info["goal_held"],
         "goal_lift_m": round(float(info["goal_lift"]), 4),
-        "env_steps": steps,
-        "return": reward_sum,
+        "env_steps": rollout.steps,
+        "return": rollout.ret,
         "simulated_seconds": round(info["sim_steps"] * timestep, 3),
         "goal_true_pose_end": np.round(info["true_object_poses"][goal_index], 4).tolist(),
         "gif": str(gif),

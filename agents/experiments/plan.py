@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.policies.rollout import roll_out
 from agents.runner.jobs import config_digest, run_jobs
 from agents.runner.records import ExecutionSummary, TrialOutcome
 from clutter_gym.env import ClutterRetrieveEnv
@@ -116,14 +117,10 @@ def replay(
     frame is handed to it as it comes (a `clutter_gym.media.GifStream`)."""
     env = ClutterRetrieveEnv(render_mode="rgb_array" if on_frame else None, waypoints=WAYPOINTS)
     try:
-        env.reset(seed=seed, options={"scene": world})
+        obs, _ = env.reset(seed=seed, options={"scene": world})
         if on_frame is not None:
             env.start_recording(on_frame, FRAME_EVERY)
-        info: dict[str, Any] = {}
-        for action in actions:
-            _, _, terminated, truncated, info = env.step(action)
-            if terminated or truncated:
-                break
+        info = roll_out(env, obs, actions, {}).info
         return TrialOutcome(
             success=bool(info["is_success"]),
             failure=info["failure"],

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from agents.experiments.capture_objects import ACTIONS, resolve_kind
+from agents.policies.rollout import roll_out
 from agents.runner.jobs import config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
@@ -424,12 +425,7 @@ def start_trial(env: ClutterRetrieveEnv, setup: Setup, kind: str, pose: Sequence
 
 def step_actions(env: ClutterRetrieveEnv, actions: Sequence[np.ndarray]) -> dict[str, Any]:
     """Step the actions until the episode ends; the last info."""
-    info: dict[str, Any] = {"failure": "", "is_success": False}
-    for action in actions:
-        _, _, terminated, _, info = env.step(action)
-        if terminated:
-            break
-    return info
+    return roll_out(env, None, actions, {"failure": "", "is_success": False}).info
 
 
 def run_trial(env: ClutterRetrieveEnv, kind: str, setup: Setup, pose: Sequence[float]) -> str:

@@ -15,6 +15,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.policies.rollout import roll_out
+
 Act = Callable[[Any], Any]
 MakeAct = Callable[[gym.Env, dict[str, Any]], Act]
 """(env after its reset, the reset's info) -> the agent's act function."""
@@ -52,16 +54,12 @@ def run_episode(env: gym.Env, make_act: MakeAct, seed: int) -> Episode:
     start = time.perf_counter()
     obs, first = env.reset(seed=seed)
     act = make_act(env, first)
-    total, steps, info = 0.0, 0, first
-    done = False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(act(obs))
-        total, steps = total + float(reward), steps + 1
-        done = bool(terminated or truncated)
+    rollout = roll_out(env, obs, act, first)
+    info = rollout.info
     return Episode(
         success=bool(info.get("is_success", False)),
-        length=steps,
-        ret=total,
+        length=rollout.steps,
+        ret=rollout.ret,
         failure=str(info.get("failure", "")),
         objects_moved=objects_moved(first, info, goal_name(env)),
         wall_time_s=time.perf_counter() - start,
