@@ -150,6 +150,14 @@ def train_argv(config: Path, out: Path, /, **flags: str | None) -> list[str]:
     return argv
 
 
+def registered_env(env: gym.Env) -> gym.Env:
+    """What a registered id makes, below the wrappers `gym.make` adds (TimeLimit, order and
+    checker): the env itself, or the primitive variant, a wrapper of the trajectory env."""
+    while isinstance(env, gym.Wrapper) and type(env).__module__.startswith("gymnasium."):
+        env = env.env
+    return env
+
+
 def hold_action(env: ClutterRetrieveEnv, obs: dict[str, np.ndarray]) -> np.ndarray:
     """A trajectory that keeps the arm where it is: cheap and never touches anything."""
     row = np.r_[obs["arm_joints"], 0.0, 0.0]

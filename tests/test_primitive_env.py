@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import clutter_gym  # noqa: F401  (registers the ids)
+from agents.learning.episodes import env_scene, goal_name
 from agents.learning.primitive_env import (
     DIRECTIONS_DEG,
     INFEASIBLE_COST,
@@ -20,13 +21,14 @@ from agents.learning.primitive_env import (
     SLOT_FEATURES,
     ClutterRetrievePrimitiveEnv,
 )
-from tests.helpers import lone_can
+from clutter_gym.env import ClutterRetrieveEnv
+from tests.helpers import lone_can, registered_env
 
 CAN = (0.70, -0.25, 0.0)
 
 
 def make() -> ClutterRetrievePrimitiveEnv:
-    env = gym.make("ClutterRetrievePrimitive-v0").unwrapped
+    env = registered_env(gym.make("ClutterRetrievePrimitive-v0"))
     assert isinstance(env, ClutterRetrievePrimitiveEnv)
     return env
 
@@ -114,4 +116,13 @@ def test_a_push_grasp_moves_an_obstacle_and_lets_go() -> None:
     shift = np.linalg.norm(moved["true_object_poses"][1, :2] - start["true_object_poses"][1, :2])
     assert shift > 0.05  # pushed past the static grasp, then released where it stood
     assert not moved["goal_held"] and moved["failure"] == ""
+    env.close()
+
+
+def test_it_is_a_wrapper_of_the_trajectory_env() -> None:
+    env = gym.make("ClutterRetrievePrimitive-v0")
+    assert isinstance(registered_env(env), gym.Wrapper)
+    assert isinstance(env.unwrapped, ClutterRetrieveEnv)
+    env.reset(seed=0, options={"scene": lone_can("sigma1", CAN)})
+    assert env_scene(env) is env.unwrapped.scene and goal_name(env) == "red_can"
     env.close()

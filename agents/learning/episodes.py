@@ -68,17 +68,12 @@ def run_episode(env: gym.Env, make_act: MakeAct, seed: int) -> Episode:
 
 
 def env_scene(env: gym.Env) -> Any:
-    """The episode's scene: an attribute of the env under any wrappers, or of the env that an
-    env composing another keeps as ``env`` (the primitive variant); None if there is none."""
-    for _ in range(8):
-        try:
-            return env.get_wrapper_attr("scene")
-        except AttributeError:
-            inner = getattr(env.unwrapped, "env", None)
-            if not isinstance(inner, gym.Env):
-                return None
-            env = inner
-    return None
+    """The episode's scene: an attribute of the env under any wrappers (the primitive variant
+    is one), None if there is none."""
+    try:
+        return env.get_wrapper_attr("scene")
+    except AttributeError:
+        return None
 
 
 def goal_name(env: gym.Env) -> str | None:

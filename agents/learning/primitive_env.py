@@ -2,9 +2,10 @@
 
 The agent picks what the planner searches: a primitive (PickUp, push-grasp then release, or
 sweep), the object it acts on, and the primitive's direction, lateral offset (where along the
-hand, for a sweep), distance and aperture (which side of the hand, for a sweep). The wrapper
-builds it with the planner's own action code (`planners.actions.primitives`) from the latest
-detection, moves the arm there with GoTo, and runs it in `ClutterRetrieve-v0`'s physics:
+hand, for a sweep), distance and aperture (which side of the hand, for a sweep). The env, a
+`gymnasium.Wrapper` of the trajectory env, builds it with the planner's own action code
+(`planners.actions.primitives`) from the latest detection, moves the arm there with GoTo, and
+runs it in `ClutterRetrieve-v0`'s physics:
 free-space motions fast, contact quasi-static (`SEGMENT_SPEEDS`). Whether the object ends in the
 hand, stays upright or is knocked over is physics' answer, not the capture region's.
 
@@ -85,15 +86,15 @@ class PrimitivePhysicsEnv(ClutterRetrieveEnv):
     merge_fixed_links = True
 
 
-class ClutterRetrievePrimitiveEnv(gym.Env[np.ndarray, np.ndarray]):
-    """`ClutterRetrieve-v0` with one parameterised primitive per step (module docstring)."""
-
-    metadata = ClutterRetrieveEnv.metadata
+class ClutterRetrievePrimitiveEnv(gym.Wrapper[np.ndarray, np.ndarray, Any, Any]):
+    """`ClutterRetrieve-v0` with one parameterised primitive per step (module docstring): a
+    Gymnasium wrapper of the trajectory env, whose attributes (``scene``, ``surface``,
+    ``waypoints``) it shows through `get_wrapper_attr`; ``unwrapped`` is that env."""
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        self.env = PrimitivePhysicsEnv(render_mode=render_mode, **kwargs)
-        self.render_mode = render_mode
-        self.action_space: spaces.MultiDiscrete = spaces.MultiDiscrete(
+        self._physics = PrimitivePhysicsEnv(render_mode=render_mode, **kwargs)
+        super().__init__(self._physics)  # type: ignore[arg-type]  # mypy binds the inner env to the outer spaces
+        self._actions = spaces.MultiDiscrete(
             [
                 len(PRIMITIVE_KINDS),
                 MAX_OBJECTS,
@@ -103,6 +104,7 @@ class ClutterRetrievePrimitiveEnv(gym.Env[np.ndarray, np.ndarray]):
                 2,
             ]
         )
+        self.action_space = self._actions
         size = MAX_OBJECTS * SLOT_FEATURES + 4
         self.observation_space = spaces.Box(-10.0, 10.0, (size,), np.float32)
         self._obs: Observation = {}
@@ -112,13 +114,12 @@ class ClutterRetrievePrimitiveEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
-        obs, info = self.env.reset(seed=seed, options=options)
+        obs, info = self._physics.reset(seed=seed, options=options)
         return self._observe(obs, info), self._info(info, "")
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         a = np.asarray(action)
-        nvec = self.action_space.nvec
+        nvec = self._actions.nvec
         if a.shape != nvec.shape or a.dtype.kind not in "iu" or np.any((a < 0) | (a >= nvec)):
             raise ValueError(
                 f"action: {action!r}; expected shape {nvec.shape} integers, each in [0, n) "
@@ -132,16 +133,10 @@ class ClutterRetrievePrimitiveEnv(gym.Env[np.ndarray, np.ndarray]):
         trajectory = self._plan(seen, order[slot], a)
         if isinstance(trajectory, Failure):
             return self._infeasible(f"{trajectory.action} {trajectory.obj}: {trajectory.reason}")
-        obs, reward, terminated, truncated, info = self.env.execute_trajectory(
+        obs, reward, terminated, truncated, info = self._physics.execute_trajectory(
             trajectory, SEGMENT_SPEEDS
         )
         return self._observe(obs, info), float(reward), terminated, truncated, self._info(info, "")
-
-    def render(self) -> np.ndarray | None:
-        return self.env.render()
-
-    def close(self) -> None:
-        self.env.close()
 
     # -- internals -------------------------------------------------------------------------------
     def _plan(self, seen: ObservedScene, name: str, a: np.ndarray) -> Trajectory | Failure:
