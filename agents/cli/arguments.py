@@ -191,3 +191,14 @@ def noise(text: str) -> str | tuple[float, float]:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a noise level ({levels}) or 'sigma_xy,sigma_theta'{why}"
         ) from None
+
+
+def agent(text: str) -> object:
+    """An agent of `clutter-gym evaluate`: a training directory (its files are read now),
+    planner:NAME or scripted."""
+    from agents.learning.agent_specs import parse_agent
+
+    try:
+        return parse_agent(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None

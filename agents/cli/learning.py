@@ -10,6 +10,7 @@ import sys
 from agents.cli.arguments import (
     COUNT,
     SEED,
+    agent,
     input_file,
     integers,
     names_from,
@@ -77,22 +78,12 @@ def run_train(args: argparse.Namespace) -> int:
     return 0 if all(r["status"] == "finished" for r in records) else 1
 
 
-def _agent(text: str) -> object:
-    """An agent of `clutter-gym evaluate`, checked now (a training directory is read)."""
-    from agents.learning.agent_specs import parse_agent
-
-    try:
-        return parse_agent(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
 def add_evaluate(parser: argparse.ArgumentParser) -> None:
     from clutter_gym.model.scene import GOAL_KINDS, LEVELS
     from clutter_gym.model.world import SURFACES
 
     parser.add_argument(
-        "--agent", type=_agent, action="append", required=True,
+        "--agent", type=agent, action="append", required=True,
         help="a training directory, planner:NAME (pushing, pg, tsr, pick-and-place) or scripted",
     )
     parser.add_argument("--env", choices=ENV_IDS, required=True, help="the evaluated variant")
