@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from agents.policies.rollout import roll_out
-from agents.runner.jobs import config_digest, run_jobs
+from agents.runner.jobs import NumberedTrial, config_digest, run_jobs
 from agents.runner.records import ExecutionSummary, TrialOutcome
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import gif_writer, write_json
@@ -140,19 +140,12 @@ def execute_trial(world: Scene, actions: list[np.ndarray], seed: int) -> TrialOu
 
 
 @dataclass(frozen=True)
-class TrialJob:
+class TrialJob(NumberedTrial):
     """One execution: its index (also the env seed), the true world and the plan's env actions."""
 
     index: int
     world: Scene
     actions: list[np.ndarray]
-
-    @property
-    def key(self) -> str:
-        return str(self.index)
-
-    def identity(self) -> dict[str, Any]:
-        return {"trial": self.index}
 
     def crashed(self, error: str) -> dict[str, Any]:
         return TrialOutcome.crashed(error).as_dict()

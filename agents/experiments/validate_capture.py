@@ -53,7 +53,7 @@ import numpy as np
 
 from agents.experiments.capture_objects import ACTIONS, resolve_kind
 from agents.policies.rollout import roll_out
-from agents.runner.jobs import config_digest, run_jobs
+from agents.runner.jobs import NumberedTrial, config_digest, run_jobs
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
 from clutter_gym.model import herb as hm
@@ -500,20 +500,13 @@ def judge_sweep(end: SweepEnd, span: tuple[float, float]) -> str:
 
 
 @dataclass(frozen=True)
-class ValidationJob:
+class ValidationJob(NumberedTrial):
     """One trial: its index, the object kind, its set-up and the pose (region frame)."""
 
     index: int
     kind: str
     setup: Setup
     pose: tuple[float, float, float]
-
-    @property
-    def key(self) -> str:
-        return str(self.index)
-
-    def identity(self) -> dict[str, Any]:
-        return {"trial": self.index}
 
     def crashed(self, error: str) -> dict[str, Any]:
         return {"outcome": f"crashed: {error}"}

@@ -105,6 +105,21 @@ class Job(Protocol):
         ...
 
 
+class NumberedTrial:
+    """Key and identity of a job that is one numbered trial of a run (executions of a plan,
+    validation poses); a job dataclass inherits them and adds its ``index`` field and its
+    crash record."""
+
+    index: int
+
+    @property
+    def key(self) -> str:
+        return str(self.index)
+
+    def identity(self) -> Record:
+        return {"trial": self.index}
+
+
 # --------------------------------------------------------------------------------------------
 # The log
 # --------------------------------------------------------------------------------------------
