@@ -378,15 +378,17 @@ def push_grasp_apertures(footprint: Footprint) -> tuple[float, ...]:
 
 def precompute(directory: Path) -> list[Path]:
     """Build the shipped regions into ``directory``: the push-grasp of every graspable object
-    at every aperture the planner searches and the sweep of every object (the planner's
-    action library uses exactly these), and remove any other region file there."""
+    at every aperture the planner searches and at `default_aperture` (the primitive env's and
+    validate-capture's default), the sweep of every object, and remove any other region file
+    there."""
     from clutter_gym.model.objects import OBJECTS
 
     settings = CaptureSettings()
     wanted = set()
     for spec in tqdm(OBJECTS.values(), desc="capture regions", unit="object"):
         if spec.graspable:
-            for aperture in push_grasp_apertures(spec.footprint):
+            apertures = {*push_grasp_apertures(spec.footprint), default_aperture(spec.footprint)}
+            for aperture in sorted(apertures):
                 push_grasp_region(spec.footprint, aperture, cache_dir=directory)
                 wanted.add(cache_name("push_grasp", spec.footprint, aperture, settings))
         sweep_region(spec.footprint, cache_dir=directory)

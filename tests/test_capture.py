@@ -178,15 +178,16 @@ def test_bad_queries(can_region: CaptureRegion) -> None:
 
 
 def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path) -> None:
-    """Every region the planner uses ships with the package under its current key (a change
-    to the simulation or settings would miss it and rebuild for minutes), and a shipped file
-    is what a fresh build gives."""
+    """Every region the planner, the primitive env and validate-capture use by default ships
+    with the package under its current key (a change to the simulation or settings would miss
+    it and rebuild for minutes), and a shipped file is what a fresh build gives."""
     settings = CaptureSettings()
     for spec in OBJECTS.values():
         footprint = spec.footprint
         wanted = [("sweep", STRAIGHT_APERTURE)]
         if spec.graspable:
-            wanted += [("push_grasp", a) for a in push_grasp_apertures(footprint)]
+            searched = {*push_grasp_apertures(footprint), default_aperture(footprint)}
+            wanted += [("push_grasp", a) for a in sorted(searched)]
         for kind, aperture in wanted:
             assert (SHIPPED_DIR / cache_name(kind, footprint, aperture, settings)).exists(), (
                 f"{spec.kind} {kind} at {aperture}: run python -m planners.capture"
