@@ -196,13 +196,7 @@ def plan_retrieval(
             )
         )
         others = tuple(sorted(set(names) - {goal}))
-        steps = None
-        if fixed != others:
-            # A plan that moves nothing first (§2.2.6: short plans): the action generators
-            # stop after a few candidates, and the first few may all need objects moved.
-            steps = search.rearrange(goal, Retrieve(), Volume(), (), others, None, 0)
-        if steps is None:
-            steps = search.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
+        steps = search.retrieve(goal, others, fixed)
         if steps is None:
             reason = "no plan: every action for the goal object failed (see blocked_by)"
     except BudgetExceeded:
@@ -231,6 +225,35 @@ class _Search:
         self.arm = arm
         self.start_arm = start_arm
         self.actions = actions
+        self.max_depth = 0  # objects a plan may move, one per planning step below the goal's
+
+    def retrieve(
+        self, goal: str, others: tuple[str, ...], fixed: tuple[str, ...]
+    ) -> list[PlanStep] | None:
+        """Rearrange(goal, {in hand}, ...) in passes, shortest plans first (§2.2.6): moving
+        nothing; moving one object, the one that blocked the goal's hand most often first, with
+        every candidate avoiding all the others (so that an action's few candidates are ones
+        such a plan can use; unrestricted, they may all need two objects moved); then iterative
+        deepening on the number of objects moved, so that the budget is not spent deep under
+        the first candidates (sweeps of sweeps) while a shorter plan waits under a later one.
+        The caches make the repeated levels cheap."""
+        movable = [n for n in others if n not in fixed]
+        if movable:
+            self.max_depth = 0
+            steps = self.rearrange(goal, Retrieve(), Volume(), (), others, None, 0)
+            if steps is not None:
+                return steps
+            self.max_depth = 1
+            for name in [n for n in self.ctx.failures.blocking(goal) if n in movable]:
+                avoid = tuple(n for n in others if n != name)
+                steps = self.rearrange(goal, Retrieve(), Volume(), (), avoid, None, 0)
+                if steps is not None:
+                    return steps
+        for self.max_depth in range(1 if movable else 0, len(movable) + 1):
+            steps = self.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
+            if steps is not None:
+                return steps
+        return None
 
     def rearrange(
         self,
@@ -286,6 +309,8 @@ class _Search:
             others = sorted(set(ctx.beliefs) - {o} - set(avoid))
             penetrated = vol.penetrated(ctx.objects_volume(others))
         move_next = move + tuple(sorted(penetrated - set(move)))
+        if depth + len(move_next) > self.max_depth:
+            return None  # a longer plan than this iteration allows (the empty move_next passes)
         if not move_next:
             approach = self._approach(tau)
             if approach is None:

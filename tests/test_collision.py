@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+import fcl
 import numpy as np
 import pybullet
 import pytest
@@ -20,6 +21,7 @@ from clutter_gym.model.collision import (
     CollisionWorld,
     RobotCollision,
     Volume,
+    convex_hull,
     interpolate,
     make_checker,
 )
@@ -291,3 +293,22 @@ def test_a_hull_hit_is_confirmed_against_the_samples() -> None:
     at_sample = solve(kin, tcp_target(0.84, -0.45, TABLE.top_z + 0.08))
     assert exact.in_collision(at_sample) and hulled.in_collision(at_sample)
     assert hulled.touching_objects(at_sample) == {"can"}
+
+
+def test_convex_hull_contains_its_points_and_nothing_far() -> None:
+    """The qhull-built fcl hull: a small ball at every input point touches it (the hull holds
+    them all) and one beyond the points' bounds in each direction does not."""
+    rng = np.random.default_rng(3)
+    request = fcl.CollisionRequest()
+    for _ in range(20):
+        points = rng.normal(size=(int(rng.integers(8, 200)), 3)) * rng.uniform(0.05, 0.3, 3)
+        hull = fcl.CollisionObject(convex_hull(points), fcl.Transform())
+        for p in points[:: max(1, len(points) // 10)]:
+            ball = fcl.CollisionObject(fcl.Sphere(1e-3), fcl.Transform(p))
+            assert fcl.collide(hull, ball, request, fcl.CollisionResult())
+        far = np.abs(points).max(0) + 0.01
+        for axis, sign in itertools.product(range(3), (-1, 1)):
+            beyond = np.zeros(3)
+            beyond[axis] = sign * far[axis]
+            ball = fcl.CollisionObject(fcl.Sphere(1e-3), fcl.Transform(beyond))
+            assert not fcl.collide(hull, ball, request, fcl.CollisionResult())

@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import json
 import zlib
+from dataclasses import replace
 from importlib import resources
 
 import numpy as np
 import pytest
 
+from agents.experiments.benchmark import Job
+from agents.experiments.plan import detect_scene, plan_from_detection
+from agents.experiments.suites import table1_suite
 from clutter_gym.model import herb as hm
 from clutter_gym.model.arm_geometry import ArmGeometry
 from clutter_gym.model.collision import RobotCollision, Volume
@@ -236,3 +240,22 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
     tcp_end = k.fk_tcp(path[-1])[:3, 3]
     offset = can.samples[0, :2] - k.fk_tcp(path[0])[:2, 3]
     assert np.allclose(carried[-1, 0, :2], tcp_end[:2] + offset, atol=0.02)
+
+
+def test_pushing_moves_no_more_objects_than_pick_and_place() -> None:
+    """Shortest plans first: the pushing planner's actions include pick-and-place, so where
+    pick-and-place retrieves the goal by moving one object, pushing moves at most one. The
+    benchmark's high_07 at sigma2: the goal's first candidates need a large box and a can moved,
+    and a search that went deep under them ran out of its 20 s."""
+    case = next(c for c in table1_suite().cases if c.label == "high_07" and c.noise == "sigma2")
+    seed = Job(case, "pushing", 0, 0, 120.0).case_seed
+    scene = replace(case.scene, noise=case.noise)
+    moved = {}
+    for planner in ("pick-and-place", "pushing"):
+        rng = np.random.default_rng(seed)
+        detection = detect_scene(scene, rng)
+        settings = PlannerSettings(time_budget=120.0, seed=seed)
+        result, _ = plan_from_detection(scene, detection, planner, settings, None, rng)
+        assert result.success, (planner, result.blocked_by[:3])
+        moved[planner] = result.objects_moved
+    assert len(moved["pushing"]) <= len(moved["pick-and-place"]) == 1

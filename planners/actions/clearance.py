@@ -84,7 +84,9 @@ def _near_band(
         r = footprint.bounding_radius
         local = (ctx.samples_facing(name, frame.angle) + origin) * mirror
         near = (
-            (local[:, 1] + r > y0) & (local[:, 1] - r < y1) & (local[:, 0] + r > x0)
+            (local[:, 1] + r > y0)
+            & (local[:, 1] - r < y1)
+            & (local[:, 0] + r > x0)
             & (local[:, 0] - r < x1 + length)
         )
         if near.any():
@@ -125,9 +127,10 @@ def line_overlap(
     heading: float,
     avoid: Volume,
     z: float,
-) -> str:
+) -> tuple[str, str]:
     """Why the hand moving straight along ``line`` (hand_base positions) at ``heading`` cannot
-    be collision-free: an object it overlaps where it stops, or on its way; or "". A longer
+    be collision-free, and the object it overlaps where it stops or on its way; ("", "") if
+    it can. A longer
     push passes through every pose of a shorter one, so this also rules out pushing further.
     The samples are placed in the motion's frame once, and only those near its band tested."""
     with ctx.stats.timed("clearance"):
@@ -155,20 +158,20 @@ def _line_overlap(
     heading: float,
     avoid: Volume,
     z: float,
-) -> str:
+) -> tuple[str, str]:
     start, end = line
     frame = Frame2D((float(start[0]), float(start[1])), heading)
     length = float((end - start) @ np.array([math.cos(heading), math.sin(heading)]))
     objects = _near_band(ctx, pusher, frame, avoid, z, max(length, 0.0))
     if not objects:
-        return ""
+        return "", ""
     # Where the hand stops first: most blocked candidates fail there, in one pose's test.
     (blocker,) = _blockers(pusher, objects, np.array([[length, 0.0]]))
     if blocker:
-        return f"the hand overlaps {blocker} where it stops"
+        return f"the hand overlaps {blocker} where it stops", blocker
     if length <= 0.0:
-        return ""
+        return "", ""
     (blocker,) = _blockers(_swept(pusher, length), objects, np.zeros((1, 2)))
     if blocker:
-        return f"the hand sweeps through {blocker} on its way in"
-    return ""
+        return f"the hand sweeps through {blocker} on its way in", blocker
+    return "", ""

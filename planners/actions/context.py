@@ -60,6 +60,9 @@ class PlanningContext:
         self._sums: dict[frozenset[str], Volume] = {}
         #: Sweep evolutions simulated so far, by object and sweep frame (`SweepEvolution`).
         self.sweeps: dict[tuple[Hashable, ...], SweepEvolution] = {}
+        #: Push-grasp evolutions nu_o (world poses) by object, heading, aperture and offset:
+        #: a push is the same under every parent candidate that asks to move the object.
+        self.pushes: dict[tuple[str, float, float, float], np.ndarray] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
 
     def check_budget(self) -> None:

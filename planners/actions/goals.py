@@ -50,6 +50,10 @@ class Anywhere:
         return "anywhere"
 
 
+SINGLE_POSE_TESTS = 4
+"""Poses an exact NGR test tries one at a time, lowest NGR over them first, before all at once."""
+
+
 @dataclass(frozen=True)
 class AwayFrom:
     """StablePoses(o) - NGR: standing on the surface, clear of the negative goal region."""
@@ -63,11 +67,20 @@ class AwayFrom:
     def _accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
         if held or not ctx.stays_stable(name, final):
             return False
-        near = self._near(ctx, name, final)
+        spec = ctx.beliefs[name].spec
+        top_z = ctx.surface.top_z
+        lowest = self._lowest_over(ctx, name, final)
+        near = lowest <= top_z + spec.height
         if not near.any():
             return True
-        spec = ctx.beliefs[name].spec
-        placed = Volume.of_object(name, spec, final[near], ctx.surface.top_z)
+        # Most final states tested this near the NGR meet it, and one pose under its lowest
+        # parts finds the hit about seven times faster than all poses at once (whose broad
+        # phase first visits many pairs of overlapping bounds that do not touch).
+        order = np.flatnonzero(near)[np.argsort(lowest[near], kind="stable")]
+        for k in order[:SINGLE_POSE_TESTS]:
+            if Volume.of_object(name, spec, final[k], top_z).intersects(self.ngr):
+                return False
+        placed = Volume.of_object(name, spec, final[near], top_z)
         # The hull of the poses near the NGR contains them all: clear hull, clear poses. One
         # convex shape is far cheaper for the broad phase than a hundred overlapping boxes.
         if not placed.hulled().intersects(self.ngr):
@@ -78,12 +91,14 @@ class AwayFrom:
         """A quick sufficient test: stable, and every pose's axis-aligned bounds clear the
         NGR in the top-view map (no exact geometry)."""
         with ctx.stats.timed("goal"):
-            return ctx.stays_stable(name, final) and not self._near(ctx, name, final).any()
+            if not ctx.stays_stable(name, final):
+                return False
+            lowest = self._lowest_over(ctx, name, final)
+            return bool(np.all(lowest > ctx.surface.top_z + ctx.beliefs[name].spec.height))
 
-    def _near(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
-        spec = ctx.beliefs[name].spec
-        boxes = spec.footprint.aabbs(final)
-        return self.ngr.lowest_over(boxes) <= ctx.surface.top_z + spec.height
+    def _lowest_over(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
+        """The NGR's lowest point over each pose's axis-aligned bounds (inf: nothing over)."""
+        return self.ngr.lowest_over(ctx.beliefs[name].spec.footprint.aabbs(final))
 
     def describe(self) -> str:
         return "out of the negative goal region"

@@ -66,11 +66,11 @@ def hand_in(
     spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
     heights = arm.push_heights(((start_xy, heading), (end_xy, heading)))
-    blocked = line_overlap(
+    why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
     )
-    if blocked:
-        return Failure(name, action, blocked)
+    if blocker:
+        return Failure(name, action, why, blocker)
     hand = HandCommand(0.0, profile.closure)
     free = arm.free_check(avoid, hand)
     why = "no collision-free IK solution where the hand stops"
@@ -121,8 +121,9 @@ def pick_up_or_release(
             return Failure(name, action, "no collision-free lift or pull out after the grasp")
         nu = np.concatenate([nu, turning, carried_poses])
     else:
-        finish = release(ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z,
-                         nu[-1], avoid)
+        finish = release(
+            ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z, nu[-1], avoid
+        )
         if finish is None:
             return Failure(name, action, "no collision-free retreat after the push")
     return ActionResult(action, name, Trajectory((moved.push, *finish)), nu, held, details)

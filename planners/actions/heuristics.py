@@ -67,8 +67,9 @@ def push_headings(
         limit = math.radians(ctx.settings.max_heading_deg) + 1e-9
         for k in range(4):
             off = math.remainder(belief.detected[2] + k * math.pi / 2 - base, 2 * math.pi)
-            if abs(off) <= limit and all(abs(math.remainder(base + off - h, 2 * math.pi)) > 1e-6
-                                         for h in candidates):
+            if abs(off) <= limit and all(
+                abs(math.remainder(base + off - h, 2 * math.pi)) > 1e-6 for h in candidates
+            ):
                 candidates.append(base + off)
     scored = []
     for h in candidates:

@@ -160,7 +160,7 @@ def _over_offsets(
                 name, action, MISSES_SAMPLES
             )
         elif blocker:
-            outcome = Failure(name, action, f"the hand overlaps {blocker} where it stops")
+            outcome = Failure(name, action, f"the hand overlaps {blocker} where it stops", blocker)
         else:
             outcome = _push_at(ctx, arm, name, avoid, action, push)
         if not isinstance(outcome, Failure):
@@ -215,12 +215,18 @@ def _push_at(
     frame = Frame2D((float(push.start[0]), float(push.start[1])), push.heading)
 
     def evolve() -> np.ndarray:
+        key = (name, push.heading, push.aperture, push.offset)
+        if key in ctx.pushes:
+            return ctx.pushes[key]
         stages = max(1, math.ceil(push.distance / NU_SPACING))
         with ctx.stats.timed("nu"):
             advances = np.linspace(0.0, push.distance, stages + 1)
             chosen = extreme_parameters(region.mus, region.cs)
             nu_hand = region.evolve(push.in_hand, push.distance, stages, NU_STEP, chosen)
-            return frame.moving_to_world(nu_hand, advances)
+            nu = frame.moving_to_world(nu_hand, advances)
+        nu.setflags(write=False)  # shared by every later candidate with this push
+        ctx.pushes[key] = nu
+        return nu
 
     details = {
         "heading_deg": math.degrees(push.heading),

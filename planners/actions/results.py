@@ -37,6 +37,7 @@ class Failure:
     obj: str
     action: str
     reason: str
+    blocker: str = ""  # the object of avoidVol that the hand would hit, when one is named
 
 
 Outcome = ActionResult | Failure
@@ -47,9 +48,16 @@ class FailureLog:
 
     def __init__(self) -> None:
         self._counts: dict[tuple[str, str], Counter[str]] = defaultdict(Counter)
+        self._blockers: dict[str, Counter[str]] = defaultdict(Counter)
 
     def record(self, failure: Failure) -> None:
         self._counts[(failure.obj, failure.action)][failure.reason] += 1
+        if failure.blocker:
+            self._blockers[failure.obj][failure.blocker] += 1
+
+    def blocking(self, name: str) -> list[str]:
+        """The objects that blocked the hand in actions on ``name``, most often first."""
+        return [b for b, _ in self._blockers[name].most_common()]
 
     def blockers(self) -> list[str]:
         """One line per reason, ``"<action> <object>: <reason> (<n>x)"``, most frequent first."""
