@@ -25,10 +25,11 @@ from clutter_gym.model.collision import (
     interpolate,
     make_checker,
 )
-from clutter_gym.model.herb import HandCommand, hand_targets
+from clutter_gym.model.herb import HandCommand, hand_targets, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose
 from clutter_gym.model.reachability import approach_rotation
+from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import TABLE
 from tests.helpers import HerbBullet, load_herb, transform
 
@@ -312,3 +313,27 @@ def test_convex_hull_contains_its_points_and_nothing_far() -> None:
             beyond[axis] = sign * far[axis]
             ball = fcl.CollisionObject(fcl.Sphere(1e-3), fcl.Transform(beyond))
             assert not fcl.collide(hull, ball, request, fcl.CollisionResult())
+
+
+def test_a_change_of_hand_command_sweeps_the_fingers_between(checker: CollisionChecker) -> None:
+    """Volume(robot, tau) holds the fingers on their way from one command to the next: every
+    can the open or the closed hand touches is touched by the trajectory's volume, and some cans
+    standing between the open fingers of a wide preshape are touched only on the way."""
+    robot = checker.robot
+    q = robot.kinematics.solve_ik(tcp_target(0.75, -0.2, TABLE.top_z + 0.075))
+    assert q is not None
+    wide, closed = HandCommand(0.0, 0.12), HandCommand(0.0, 1.0)
+    assert len(hand_transition(wide, closed)) >= 3 and hand_transition(closed, closed) == []
+    path = q[None].copy()
+    closing = Volume.of_trajectory(
+        robot, Trajectory((Segment("push", path, wide), Segment("close", path, closed)))
+    )
+    ends = Volume.of_robot(robot, path, wide) + Volume.of_robot(robot, path, closed)
+    can = OBJECTS["soda_can"]
+    only_on_the_way = 0
+    for x, y in itertools.product(np.arange(0.70, 1.0, 0.01), np.arange(-0.35, -0.05, 0.01)):
+        placed = Volume.of_object("can", can, np.array([x, y, 0.0]), TABLE.top_z)
+        hit_ends, hit_closing = placed.intersects(ends), placed.intersects(closing)
+        assert hit_closing or not hit_ends
+        only_on_the_way += hit_closing and not hit_ends
+    assert only_on_the_way > 0

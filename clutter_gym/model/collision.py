@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from clutter_gym.model.arm_geometry import ArmGeometry
-from clutter_gym.model.herb import OPEN_HAND, HandCommand
+from clutter_gym.model.herb import OPEN_HAND, HandCommand, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import ObjectSpec, Pose
 from clutter_gym.model.shapes import Shape
@@ -173,10 +173,16 @@ class Volume:
     def of_trajectory(
         cls, robot: RobotCollision, trajectory: Trajectory, step_rad: float = 0.02
     ) -> Volume:
-        """Volume(robot, tau) of every segment of a trajectory (see `of_robot`)."""
+        """Volume(robot, tau) of every segment of a trajectory (see `of_robot`), and where the
+        hand command changes between segments, the fingers on their way (`hand_transition`)."""
         total = cls()
+        previous = None
         for s in trajectory.segments:
+            if previous is not None:
+                for hand in hand_transition(previous, s.hand):
+                    total += cls.of_robot(robot, s.path[:1], hand, step_rad)
             total += cls.of_robot(robot, s.path, s.hand, step_rad)
+            previous = s.hand
         return total
 
     @classmethod

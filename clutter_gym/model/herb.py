@@ -133,6 +133,24 @@ class HandCommand:
 
 OPEN_HAND = HandCommand()
 
+HAND_TRANSITION_STEPS = 4
+"""Hand commands at which a change of command is checked (the last is the new command)."""
+
+
+def hand_transition(start: HandCommand, end: HandCommand) -> list[HandCommand]:
+    """The hand's commands on the way from ``start`` to ``end`` (excluding ``start``): the
+    fingers sweep everything between, and closing from a wide V preshape sweeps a neighbour
+    standing between the open fingers along with the grasped object."""
+    if start == end:
+        return []
+    return [
+        HandCommand(
+            start.spread + f * (end.spread - start.spread),
+            start.closure + f * (end.closure - start.closure),
+        )
+        for f in np.linspace(0.0, 1.0, HAND_TRANSITION_STEPS + 1)[1:]
+    ]
+
 
 def hand_targets(hand: HandCommand) -> np.ndarray:
     """Joint targets (8,) of a hand command, in `hand_joint_names` order (pybullet ignores

@@ -21,7 +21,7 @@ from clutter_gym.model.collision import (
     Volume,
     interpolate,
 )
-from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.herb import HandCommand, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.reachability import HEIGHTS, shipped_map
 from clutter_gym.model.trajectory import Segment, Trajectory
@@ -89,6 +89,14 @@ class Arm:
                 if not all(free(q) for q in interpolate(s.path, ARM_CHECK_STEP)):
                     return False
             return True
+
+    def hand_change_free(
+        self, q: np.ndarray, start: HandCommand, end: HandCommand, obstacles: Volume
+    ) -> bool:
+        """Whether the fingers stay clear of ``obstacles`` while the hand command changes from
+        ``start`` to ``end`` at configuration ``q`` (`hand_transition`)."""
+        with self.stats.timed("collision"):
+            return all(self.free_check(obstacles, hand)(q) for hand in hand_transition(start, end))
 
     def volume(self, trajectory: Trajectory) -> Volume:
         """Volume(robot, tau), sampled every `ARM_CHECK_STEP`."""

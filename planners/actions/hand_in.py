@@ -33,6 +33,8 @@ from planners.hand2d import PushGraspProfile
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 CLOSING_TURNS = 6
 """Orientations over a half turn at which a box may stand while the fingers close on it."""
+CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
+FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 
@@ -116,13 +118,25 @@ def pick_up_or_release(
         turning = closing(ctx, name, nu[-1])
         if turned_into(ctx, name, turning, avoid):
             return Failure(name, action, TURNS_INTO_AVOID)
+        if not fingers_close_free(arm, moved, avoid):
+            return Failure(name, action, FINGERS_INTO_AVOID)
         finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
         if finish is None:
             return Failure(name, action, "no collision-free lift or pull out after the grasp")
         nu = np.concatenate([nu, turning, carried_poses])
     else:
         finish = release(
-            ctx, arm, name, moved.q_end, moved.end_xy, moved.heading, moved.z, nu[-1], avoid
+            ctx,
+            arm,
+            name,
+            moved.push.hand,
+            FLAT_HAND,
+            moved.q_end,
+            moved.end_xy,
+            moved.heading,
+            moved.z,
+            nu[-1],
+            avoid,
         )
         if finish is None:
             return Failure(name, action, "no collision-free retreat after the push")
@@ -130,6 +144,14 @@ def pick_up_or_release(
 
 
 TURNS_INTO_AVOID = "the object turning in the closing hand sweeps into avoidVol"
+FINGERS_INTO_AVOID = "the closing fingers sweep into avoidVol"
+
+
+def fingers_close_free(arm: Arm, moved: HandIn, avoid: Volume) -> bool:
+    """Whether the fingers, closing from the push's preshape to the grasp where the hand
+    stopped, stay clear of avoidVol: a neighbour standing between the open fingers of a wide
+    preshape, clear of the hand itself, would be swept along with the object."""
+    return arm.hand_change_free(moved.q_end, moved.push.hand, CLOSED_HAND, avoid)
 
 
 def closing(ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
@@ -167,7 +189,7 @@ def _retrieve(
         moved.z,
         moved.nu[-1],
     )
-    closed = HandCommand(0.0, GRASP_CLOSURE)
+    closed = CLOSED_HAND
     close = Segment("close", q_end[None].copy(), closed)
     free = arm.free_check(avoid, closed)
     nothing = np.empty((0, len(in_hand), 3))
@@ -225,6 +247,8 @@ def release(
     ctx: PlanningContext,
     arm: Arm,
     name: str,
+    holding: HandCommand,
+    opened: HandCommand,
     q_end: np.ndarray,
     end_xy: np.ndarray,
     heading: float,
@@ -232,8 +256,10 @@ def release(
     final: np.ndarray,
     avoid: Volume,
 ) -> tuple[Segment, ...] | None:
-    """Open the hand flat and back away, leaving a pushed (or placed) object where it is."""
-    opened = HandCommand(0.0, OPEN_FLAT)
+    """Open the hand from ``holding`` to ``opened`` and back away, leaving a pushed (or
+    placed) object where it is; the opening fingers must clear avoidVol too."""
+    if not arm.hand_change_free(q_end, holding, opened, avoid):
+        return None
     release_ = Segment("release", q_end[None].copy(), opened)
     v = np.array([math.cos(heading), math.sin(heading)])
     back_xy = end_xy - RETREAT * v

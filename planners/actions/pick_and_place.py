@@ -18,13 +18,24 @@ from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
 from planners.actions.grasp_geometry import GRASP_CLOSURE, translated
-from planners.actions.hand_in import TURNS_INTO_AVOID, HandIn, closing, release, turned_into
+from planners.actions.hand_in import (
+    FINGERS_INTO_AVOID,
+    TURNS_INTO_AVOID,
+    HandIn,
+    closing,
+    fingers_close_free,
+    release,
+    turned_into,
+)
 from planners.actions.results import ActionResult, Failure
 
 ACTION = "pick-and-place"
 CARRY_LIFT = 0.15  # m: the object is carried this far above where it stood
 PLACEMENT_SPACING = 0.05  # m between candidate placements and between carried-volume poses
 PLACEMENT_TRIES = 6  # placements in G tried per grasp, nearest first
+PLACE_ABOVE = 0.01
+"""m above where it was grasped that a carried object is let go: lowered all the way, an object
+that slipped a few mm in the fingers is pressed into the table and springs away when released."""
 
 
 def place(
@@ -42,6 +53,8 @@ def place(
     turning = closing(ctx, name, moved.nu[-1])
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
+    if not fingers_close_free(arm, moved, avoid):
+        return Failure(name, ACTION, FINGERS_INTO_AVOID)
     in_hand = turning.reshape(-1, 3)  # every pose the held object may have
     closed = HandCommand(0.0, GRASP_CLOSURE)
     free = arm.free_check(avoid, closed)
@@ -120,14 +133,19 @@ def _carry(
     carry = arm.straight(lifted[-1], hand_pose(place_xy, heading, z + CARRY_LIFT), free)
     if carry is None:
         return None
-    lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z), free)
+    lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z + PLACE_ABOVE), free)
     if lower is None:
         return None
     carried = _carried_volume(ctx, name, in_hand, shift)
     if carried.intersects(avoid):
         return None
     placed = translated(in_hand, shift)
-    finish = release(ctx, arm, name, lower[-1], place_xy, heading, z, placed, avoid)
+    # Opened back to the grasp's preshape, not flat: fingers swinging flat from a grasp flung
+    # a placed poptart box 14 cm and toppled it (high_05); the preshape slides off as it came.
+    preshape = moved.push.hand
+    finish = release(
+        ctx, arm, name, closed, preshape, lower[-1], place_xy, heading, z, placed, avoid
+    )
     if finish is None:
         return None
     segments = (Segment("carry", carry, closed), Segment("lower", lower, closed), *finish)
