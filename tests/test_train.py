@@ -1,9 +1,11 @@
 """`clutter-gym train` and `clutter-gym plot-training`.
 
 Bad input is one line, exit status 2, before any training; a tiny PPO run leaves its evaluation
-CSV, TensorBoard log, checkpoint, best and final models and run.json; Ctrl-C saves a checkpoint
-and the same command resumes from it (an off-policy run with its replay buffer); a finished run
-does nothing; a grid on Ray gives the local grid's numbers; the training plot is a PNG.
+CSV (rows measured as `clutter-gym evaluate` measures), TensorBoard log, checkpoint, best and
+final models and run.json; Ctrl-C saves a checkpoint and the same command resumes from it (an
+off-policy run with its replay buffer), and so does a run killed by SIGKILL from its last
+periodic checkpoint; a finished run does nothing; a grid on Ray gives the local grid's numbers;
+the training plot is a PNG.
 
 Runs are tiny (a few hundred env steps of 20-step episodes) and their numbers mean nothing
 about learning: the dense variant is used because its returns are real numbers, so that equal
@@ -14,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import pickle
+import shutil
 import signal
 import subprocess
 import sys
@@ -26,9 +29,10 @@ import pytest
 import yaml
 
 from agents.figures.training_curves import Curve, band
+from agents.learning.episodes import run_episode
 from agents.learning.rl_config import ALGOS, HYPERPARAMS, load_hyperparams
-from agents.learning.runs import TrainedRun, read_run
-from agents.learning.train import EVAL_COLUMNS, read_eval_csv
+from agents.learning.runs import EVAL_COLUMNS, TrainedRun, make_env, read_eval_csv, read_run
+from agents.learning.train import EVAL_SEED
 from clutter_gym import ENV_IDS
 from tests.helpers import (
     TAB_BLUE,
@@ -224,9 +228,21 @@ def test_a_tiny_ppo_run_leaves_its_logs_models_and_run_json(
     assert meta["versions"]["stable-baselines3"] != "not installed"
     best = json.loads((out / "best.json").read_text())
     assert best["success_rate"] == max(r["success_rate"] for r in rows)
-    assert read_run(out) == TrainedRun(
+    best_run = read_run(out)
+    assert best_run == TrainedRun(
         out, "ppo", TRAIN_ENV, TRAIN_SCENES, out / "best_model.zip", out / "best_vecnormalize.pkl"
     )
+    # The best row is what `run_episode` (the measure of `clutter-gym evaluate`) gives of the best
+    # model on the evaluation scenes: episode k reset with seed EVAL_SEED + k.
+    env = make_env(TRAIN_ENV, **TRAIN_SCENES)
+    act = best_run.make_act(env)
+    episodes = [run_episode(env, lambda _env, _info: act, EVAL_SEED + k) for k in range(2)]
+    env.close()
+    assert {k: best[k] for k in EVAL_COLUMNS[1:]} == {
+        "success_rate": sum(e.success for e in episodes) / 2,
+        "mean_reward": round(sum(e.ret for e in episodes) / 2, 6),
+        "mean_length": sum(e.length for e in episodes) / 2,
+    }
 
     # The same command again: finished, nothing done. Other settings: refused, in one line.
     stamp = (out / "final_model.zip").stat().st_mtime_ns
@@ -295,6 +311,44 @@ def test_ctrl_c_saves_a_checkpoint_and_the_same_command_resumes(tmp_path: Path) 
     assert json.loads((out / "run.json").read_text())["status"] == "finished"
 
 
+def test_a_killed_run_resumes_from_its_last_checkpoint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SIGKILL after the first periodic checkpoint, then the same command: it resumes from that
+    checkpoint and finishes. Its rows up to the checkpoint are an uninterrupted run's; the rows
+    after it are not (the resumed session starts new episodes, reseeded with seed + steps), but
+    two resumes of the same checkpoint give the same rows."""
+    out = tmp_path / "run"
+    config = write_config(tmp_path / "tiny.yml")
+    flags = {"steps": "1024", "eval_freq": "256", "eval_episodes": "1"}
+    argv = train_argv(config, out, **flags)
+    process = _clutter_gym(argv)
+    latest = out / "checkpoints" / "latest.json"
+    deadline = time.monotonic() + 180
+    while not latest.exists() and process.poll() is None:
+        assert time.monotonic() < deadline, "no checkpoint in time"
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.communicate(timeout=60)
+    stopped = json.loads(latest.read_text())["steps"]
+    assert json.loads((out / "run.json").read_text())["status"] == "running" and stopped < 1024
+    shutil.copytree(out, tmp_path / "again")
+
+    resumed = []
+    for directory in (out, tmp_path / "again"):
+        process = _clutter_gym(train_argv(config, directory, **flags))
+        _, err = process.communicate(timeout=300)
+        assert process.returncode == 0 and f"resuming ppo_seed0 from step {stopped}" in err, err
+        resumed.append(read_eval_csv(directory / "eval.csv"))
+    assert resumed[0] == resumed[1]
+    assert [r["timesteps"] for r in resumed[0]] == [256, 512, 768, 1024]
+
+    train_tiny(tmp_path / "whole", config, capsys, **flags)
+    whole = read_eval_csv(tmp_path / "whole" / "eval.csv")
+    kept = [r for r in whole if r["timesteps"] <= stopped]
+    assert kept and resumed[0][: len(kept)] == kept
+
+
 @pytest.mark.slow
 def test_ctrl_c_stops_every_run_of_a_parallel_grid_and_the_same_command_resumes_them(
     tmp_path: Path,
@@ -337,6 +391,22 @@ def test_ctrl_c_with_worker_processes(tmp_path: Path) -> None:
     config = write_config(tmp_path / "tiny.yml")
     argv = train_argv(config, out, steps="768", eval_freq="256", eval_episodes="1", n_envs="2")
     _resume_and_check(argv, out, 768)
+
+
+@pytest.mark.parametrize(
+    ("n_envs", "every", "start"), [(1, 128, 0), (2, 128, 0), (2, 129, 0), (3, 100, 171), (4, 3, 8)]
+)
+def test_evaluations_and_checkpoints_follow_env_steps_across_resumes(
+    n_envs: int, every: int, start: int
+) -> None:
+    """Each falls on the first call at or after each multiple of its frequency in env steps,
+    whatever the number of envs and wherever the run resumed (SB3 counts calls from 0)."""
+    from agents.learning.callbacks import crossed
+
+    calls = range(start + n_envs, 1000, n_envs)  # the step count after each call
+    due = [steps for steps in calls if crossed(steps, n_envs, every)]
+    multiples = range((start // every + 1) * every, calls[-1] + 1, every)
+    assert due == sorted({next(s for s in calls if s >= m) for m in multiples})
 
 
 # --- grids ---------------------------------------------------------------------------------------

@@ -18,8 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from agents.learning.runs import EVAL_CSV, RUN_JSON
-from agents.learning.train import read_eval_csv
+from agents.learning.runs import EVAL_CSV, RUN_JSON, read_eval_csv
 from clutter_gym.model.files import atomic_file
 
 

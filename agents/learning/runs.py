@@ -1,12 +1,14 @@
 """A training run's directory as `clutter-gym train` leaves it, and its agent acting again.
 
-The file names live here, shared by the trainer that writes them and the evaluation that reads
-them. The agent acts deterministically on raw observations of its env: the VecNormalize
-statistics saved beside a model (if the run normalised) are applied here, as in training.
+The file names and formats (eval.csv, the checkpoint in force) live here, shared by the trainer
+and its callbacks that write them and the evaluation and figures that read them. The agent acts
+deterministically on raw observations of its env: the VecNormalize statistics saved beside a
+model (if the run normalised) are applied here, as in training.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 import pickle
 from collections.abc import Iterator
@@ -20,6 +22,7 @@ import gymnasium as gym
 import clutter_gym  # noqa: F401  (registers the ids, also in a freshly spawned process)
 from agents.learning.episodes import Act
 from agents.learning.rl_config import ALGOS, algorithm_class
+from clutter_gym.model.files import atomic_write_text
 
 RUN_JSON = "run.json"
 EVAL_CSV = "eval.csv"
@@ -29,7 +32,11 @@ BEST_JSON = "best.json"
 FINAL_MODEL = "final_model.zip"
 FINAL_VECNORMALIZE = "vecnormalize.pkl"
 CHECKPOINTS = "checkpoints"
+LATEST_JSON = "latest.json"
+"""In `CHECKPOINTS`: the checkpoint in force (steps, and the names of its model, VecNormalize
+statistics and replay buffer files; None for those the run has not)."""
 TENSORBOARD = "tb"
+EVAL_COLUMNS = ("timesteps", "success_rate", "mean_reward", "mean_length")
 
 
 @dataclass(frozen=True)
@@ -95,6 +102,50 @@ def _env_kwargs(run: dict[str, Any]) -> dict[str, Any]:
     hyperparams = settings.get("hyperparams") if isinstance(settings, dict) else None
     kwargs = hyperparams.get("env_kwargs") if isinstance(hyperparams, dict) else None
     return dict(kwargs) if isinstance(kwargs, dict) else {}
+
+
+def read_eval_csv(path: Path) -> list[dict[str, float]]:
+    """The rows of an eval.csv as numbers; ValueError naming the file if it is not one."""
+    if not path.exists():
+        return []
+    try:
+        with path.open(newline="") as handle:
+            reader = csv.DictReader(handle)
+            if tuple(reader.fieldnames or ()) != EVAL_COLUMNS:
+                raise ValueError(f"columns {reader.fieldnames}, expected {list(EVAL_COLUMNS)}")
+            return [{k: float(row[k]) for k in EVAL_COLUMNS} for row in reader]
+    except (OSError, ValueError, TypeError, csv.Error) as error:
+        raise ValueError(f"{path}: not an eval.csv of clutter-gym train ({error})") from None
+
+
+def write_eval_csv(path: Path, rows: list[dict[str, float]]) -> None:
+    """All the rows, replacing the file atomically (whole numbers without a decimal point)."""
+    lines = [",".join(EVAL_COLUMNS)]
+    lines += [",".join(_number(row[k]) for k in EVAL_COLUMNS) for row in rows]
+    atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def _number(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def read_json_object(path: Path) -> dict[str, Any]:
+    """A JSON object from a file; {} if it is missing, unreadable or not an object."""
+    try:
+        value = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    return value if isinstance(value, dict) else {}
+
+
+def latest_checkpoint(directory: Path) -> dict[str, Any] | None:
+    """The run's checkpoint in force (its `LATEST_JSON`), if all its files are there."""
+    checkpoints = directory / CHECKPOINTS
+    latest = read_json_object(checkpoints / LATEST_JSON)
+    names = [latest.get(k) for k in ("model", "vecnormalize", "replay_buffer")]
+    if "steps" not in latest or not all(n is None or (checkpoints / n).is_file() for n in names):
+        return None
+    return latest
 
 
 def make_env(env_id: str, **kwargs: Any) -> gym.Env:

@@ -2,18 +2,20 @@
 registered variant, in the conventions of rl-baselines3-zoo.
 
 One run is one (algorithm, env id, seed) in its own directory (`agents.learning.runs` names the
-files):
+files). The model learns with SB3's own `learn` under SB3's callbacks, subclassed in
+`agents.learning.callbacks` for what the directory holds beyond theirs:
 
 * ``run.json``: the settings and hyperparameters actually used, versions, seed, status;
-* ``eval.csv`` (timesteps, success_rate, mean_reward, mean_length) and ``tb/`` (TensorBoard):
-  every ``eval_freq`` env steps, and at the end, ``eval_episodes`` deterministic episodes, the
-  k-th reset with seed ``EVAL_SEED + k``: every evaluation of every run sees the same scenes,
-  so curves of different seeds and algorithms compare;
-* ``best_model.zip`` (with ``best.json``), ``final_model.zip``, VecNormalize statistics beside
-  each when the entry normalises;
-* ``checkpoints/``: the latest checkpoint (model, VecNormalize, replay buffer of off-policy
-  algorithms), every ``save_freq`` env steps and when interrupted; ``latest.json`` is written
-  last, so a crash while saving leaves the previous checkpoint in force.
+* ``eval.csv`` (timesteps, success_rate, mean_reward, mean_length) and ``tb/`` (TensorBoard),
+  from `EvalCallback`: every ``eval_freq`` env steps, and at the end, ``eval_episodes``
+  deterministic episodes, the k-th reset with seed ``EVAL_SEED + k``: every evaluation of every
+  run sees the same scenes, so curves of different seeds and algorithms compare;
+* ``best_model.zip`` (with ``best.json``: best by success rate, then mean reward),
+  ``final_model.zip``, VecNormalize statistics beside each when the entry normalises;
+* ``checkpoints/``, from `CheckpointCallback`: the latest checkpoint (model, VecNormalize,
+  replay buffer of off-policy algorithms), every ``save_freq`` env steps and when interrupted;
+  ``latest.json`` is written last, so a crash while saving leaves the previous checkpoint in
+  force.
 
 Running the same command again resumes an unfinished run from its checkpoint (the eval rows
 after it are dropped: they are measured again); a finished run says so and does nothing; other
@@ -31,26 +33,24 @@ on Ray.
 
 from __future__ import annotations
 
-import csv
 import functools
 import json
 import multiprocessing
-import os
 import platform
 import signal
 import sys
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 from gymnasium import spaces
 from tqdm import tqdm
 
 from agents.learning import runs as files
-from agents.learning.episodes import Act, run_episode
 from agents.learning.rl_config import (
     Hyperparams,
     algorithm_class,
@@ -64,8 +64,10 @@ from agents.learning.runs import one_torch_thread
 from agents.runner.jobs import FirstInterrupt, Record, config_digest, run_jobs
 from clutter_gym.model.files import atomic_write_text
 
+if TYPE_CHECKING:
+    from agents.learning.callbacks import EvalEpisodes
+
 EVAL_SEED = 1_000_000
-EVAL_COLUMNS = ("timesteps", "success_rate", "mean_reward", "mean_length")
 RUN_FORMAT = "clutter-gym-train/1"
 JOBS_LOG = "train_jobs.jsonl"
 DRY_BUFFER = 1000
@@ -274,13 +276,8 @@ def train_run(job: TrainJob) -> Record:
         print(f"{directory}: already finished; nothing to do", file=sys.stderr)
         return _summary(job, "finished")
     with one_torch_thread(), FirstInterrupt("saving a checkpoint at the next step") as interrupt:
-        training = _Training(job, interrupt)
-        try:
-            training.learn()
-        finally:
-            training.close()
+        steps = _train(job, interrupt)
     if interrupt.seen:
-        steps = training.model.num_timesteps
         print(f"{directory}: interrupted at {steps} steps; checkpoint saved", file=sys.stderr)
         if multiprocessing.parent_process() is None:
             raise KeyboardInterrupt
@@ -289,19 +286,16 @@ def train_run(job: TrainJob) -> Record:
 
 
 def _finished(directory: Path) -> bool:
-    try:
-        run = json.loads((directory / files.RUN_JSON).read_text())
-    except (OSError, ValueError):
-        return False
+    run = files.read_json_object(directory / files.RUN_JSON)
     return run.get("status") == "finished" and (directory / files.FINAL_MODEL).is_file()
 
 
 def _summary(job: TrainJob, status: str) -> Record:
     """The run's record: status, steps done, last and best success rates (from its files)."""
     directory = Path(job.out)
-    rows = read_eval_csv(directory / files.EVAL_CSV)
-    checkpoint = _latest(directory)
-    best = _read_json(directory / files.BEST_JSON)
+    rows = files.read_eval_csv(directory / files.EVAL_CSV)
+    checkpoint = files.latest_checkpoint(directory)
+    best = files.read_json_object(directory / files.BEST_JSON)
     return {
         **job.identity(),
         "status": status,
@@ -309,38 +303,6 @@ def _summary(job: TrainJob, status: str) -> Record:
         "final_success_rate": rows[-1]["success_rate"] if rows else None,
         "best_success_rate": best.get("success_rate"),
     }
-
-
-def read_eval_csv(path: Path) -> list[dict[str, float]]:
-    """The rows of an eval.csv as numbers; ValueError naming the file if it is not one."""
-    if not path.exists():
-        return []
-    try:
-        with path.open(newline="") as handle:
-            reader = csv.DictReader(handle)
-            if tuple(reader.fieldnames or ()) != EVAL_COLUMNS:
-                raise ValueError(f"columns {reader.fieldnames}, expected {list(EVAL_COLUMNS)}")
-            return [{k: float(row[k]) for k in EVAL_COLUMNS} for row in reader]
-    except (OSError, ValueError, TypeError, csv.Error) as error:
-        raise ValueError(f"{path}: not an eval.csv of clutter-gym train ({error})") from None
-
-
-def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        value = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return {}
-    return value if isinstance(value, dict) else {}
-
-
-def _latest(directory: Path) -> dict[str, Any] | None:
-    """The checkpoint in force, if its files are all there."""
-    latest = _read_json(directory / files.CHECKPOINTS / "latest.json")
-    names = [latest.get(k) for k in ("model", "vecnormalize", "replay_buffer")]
-    checkpoints = directory / files.CHECKPOINTS
-    if "steps" not in latest or not all(n is None or (checkpoints / n).is_file() for n in names):
-        return None
-    return latest
 
 
 def worker_env(env_id: str, in_worker: bool, **kwargs: Any) -> gym.Env:
@@ -368,230 +330,140 @@ def _normalized(venv: Any, options: dict[str, Any] | None) -> Any:
     return vec_env_tools().VecNormalize(venv, **options)
 
 
-class _Training:
-    """The state of one run while it trains: envs, model, evaluation env, progress."""
+def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
+    """Train from the run's checkpoint in force (or from scratch) to ``job.steps`` under SB3's
+    callbacks (`agents.learning.callbacks`); then, unless interrupted, a last evaluation if the
+    last step has none, and the final model. A checkpoint either way; the steps trained."""
+    from agents.learning import callbacks  # stable-baselines3, which train_run has required
 
-    def __init__(self, job: TrainJob, interrupt: FirstInterrupt) -> None:
-        self.job = job
-        self.interrupt = interrupt
-        self.dir = Path(job.out)
-        self.checkpoints = self.dir / files.CHECKPOINTS
-        self.cls = algorithm_class(job.algo)
-        checkpoint = _latest(self.dir)
-        self.start = int(checkpoint["steps"]) if checkpoint else 0
-        self.venv = self._vec_env(job.seed + self.start)
-        self.model: Any = None
-        try:
-            if checkpoint is None:
-                self._fresh()
-            else:
-                self._resume(checkpoint)
-            self.eval_env = files.make_env(job.env_id, **job.hyperparams.env_kwargs)
-        except BaseException:
-            self.venv.close()  # no worker processes left behind
-            raise
-        self.rows = read_eval_csv(self.dir / files.EVAL_CSV)
-        self.best = _read_json(self.dir / files.BEST_JSON)
-        self.bar = tqdm(
-            total=job.steps, initial=self.start, unit="step", desc=f"{job.algo} seed {job.seed}"
+    directory = Path(job.out)
+    checkpoint = files.latest_checkpoint(directory)
+    start = int(checkpoint["steps"]) if checkpoint else 0
+    with ExitStack() as stack:
+        venv = _vec_env(job, job.seed + start)
+        stack.callback(venv.close)  # no worker processes left behind, whatever happens
+        model = _fresh(job, venv) if checkpoint is None else _resumed(job, venv, checkpoint)
+        eval_env, episodes = _eval_env(job)  # after the model: its seeding comes first
+        stack.callback(eval_env.close)
+        bar = stack.enter_context(
+            tqdm(total=job.steps, initial=start, unit="step", desc=f"{job.algo} seed {job.seed}")
         )
-        self.next_eval = _next_multiple(self.start, job.eval_freq)
-        self.next_save = _next_multiple(self.start, job.save_freq)
-
-    # --- building -----------------------------------------------------------------------------
-    def _vec_env(self, seed: int) -> Any:
-        tools = vec_env_tools()
-        many = self.job.n_envs > 1
-        return tools.make_vec_env(
-            functools.partial(worker_env, self.job.env_id, many),
-            n_envs=self.job.n_envs,
-            seed=seed,
-            env_kwargs=self.job.hyperparams.env_kwargs,
-            vec_env_cls=tools.SubprocVecEnv if many else tools.DummyVecEnv,
-            vec_env_kwargs={"start_method": "spawn"} if many else None,
+        evaluation = callbacks.RunEvaluation(
+            eval_env, episodes, directory, job.eval_episodes, job.eval_freq, bar
         )
-
-    def _fresh(self) -> None:
-        hp = self.job.hyperparams
-        self.dir.mkdir(parents=True, exist_ok=True)
-        self.venv = _normalized(self.venv, hp.normalize)
-        self.model = self.cls(
-            policy_for(hp, self.venv.observation_space),
-            self.venv,
-            seed=self.job.seed,
-            device="cpu",
-            verbose=0,
-            tensorboard_log=str(self.dir / files.TENSORBOARD),
-            **algorithm_kwargs(hp),
+        saving = callbacks.RunCheckpoint(directory / files.CHECKPOINTS, job.save_freq)
+        model.learn(
+            total_timesteps=job.steps - start,
+            callback=[
+                callbacks.Progress(bar), evaluation, saving, callbacks.StopOnInterrupt(interrupt)
+            ],
+            reset_num_timesteps=start == 0,
+            tb_log_name=job.algo.upper(),
         )
-        for stale in (files.EVAL_CSV, files.BEST_JSON, files.BEST_MODEL, files.BEST_VECNORMALIZE):
-            (self.dir / stale).unlink(missing_ok=True)
-        self._write_run("running")
-        print(f"{self.dir}: training {self.job.key} on {self.job.env_id}", file=sys.stderr)
-
-    def _resume(self, checkpoint: dict[str, Any]) -> None:
-        if checkpoint.get("vecnormalize"):
-            stats = self.checkpoints / checkpoint["vecnormalize"]
-            self.venv = vec_env_tools().VecNormalize.load(str(stats), self.venv)
-        self.model = self.cls.load(
-            self.checkpoints / checkpoint["model"],
-            env=self.venv,
-            device="cpu",
-            tensorboard_log=str(self.dir / files.TENSORBOARD),
-        )
-        self.model.set_random_seed(self.job.seed + self.start)
-        if checkpoint.get("replay_buffer"):
-            self.model.load_replay_buffer(self.checkpoints / checkpoint["replay_buffer"])
-        kept = [r for r in read_eval_csv(self.dir / files.EVAL_CSV) if r["timesteps"] <= self.start]
-        self._write_csv(kept)
-        print(f"{self.dir}: resuming {self.job.key} from step {self.start}", file=sys.stderr)
-
-    # --- training -----------------------------------------------------------------------------
-    def learn(self) -> None:
-        remaining = self.job.steps - self.start
-        self.model.learn(
-            total_timesteps=remaining,
-            callback=self._on_step,
-            reset_num_timesteps=self.start == 0,
-            tb_log_name=self.job.algo.upper(),
-        )
-        if self.interrupt.seen:
-            self.checkpoint()
-            self._write_run("interrupted")
-            return
-        if not self.rows or self.rows[-1]["timesteps"] != self.model.num_timesteps:
-            self.evaluate()
-        self.checkpoint()
-        self._save(files.FINAL_MODEL, files.FINAL_VECNORMALIZE)
-        self._write_run("finished")
-
-    def _on_step(self, _locals: dict[str, Any], _globals: dict[str, Any]) -> bool:
-        """stable-baselines3 calls this after every vector env step; False stops learning."""
-        steps = self.model.num_timesteps
-        self.bar.update(steps - self.bar.n)
-        if steps >= self.next_eval:
-            self.evaluate()
-            self.next_eval = _next_multiple(steps, self.job.eval_freq)
-        if steps >= self.next_save:
-            self.checkpoint()
-            self.next_save = _next_multiple(steps, self.job.save_freq)
-        return not self.interrupt.seen
-
-    def evaluate(self) -> None:
-        """``eval_episodes`` deterministic episodes on the evaluation scenes: a row of
-        eval.csv, TensorBoard scalars, and the best model if it is the best so far."""
-        act = _policy_act(self.model)
-        episodes = [
-            run_episode(self.eval_env, lambda env, info: act, EVAL_SEED + k)
-            for k in range(self.job.eval_episodes)
-        ]
-        n = len(episodes)
-        row = {
-            "timesteps": float(self.model.num_timesteps),
-            "success_rate": sum(e.success for e in episodes) / n,
-            "mean_reward": round(sum(e.ret for e in episodes) / n, 6),
-            "mean_length": sum(e.length for e in episodes) / n,
-        }
-        self.rows.append(row)
-        self._write_csv(self.rows)
-        for key in EVAL_COLUMNS[1:]:
-            self.model.logger.record(f"eval/{key}", row[key])
-        self.model.logger.dump(self.model.num_timesteps)
-        self.bar.set_postfix(success=f"{row['success_rate']:.2f}")
-        if _better(row, self.best):
-            self._save(files.BEST_MODEL, files.BEST_VECNORMALIZE)
-            self.best = {k: row[k] for k in EVAL_COLUMNS}
-            atomic_write_text(self.dir / files.BEST_JSON, json.dumps(self.best) + "\n")
-
-    # --- files --------------------------------------------------------------------------------
-    def checkpoint(self) -> None:
-        """Model, VecNormalize and replay buffer under names of this step, then latest.json;
-        the files of the previous checkpoint go once latest.json names the new ones."""
-        steps = self.model.num_timesteps
-        self.checkpoints.mkdir(parents=True, exist_ok=True)
-        latest: dict[str, Any] = {"steps": steps, "model": f"model_{steps}_steps.zip"}
-        self.model.save(self.checkpoints / latest["model"])
-        latest["vecnormalize"] = latest["replay_buffer"] = None
-        normalizer = self.model.get_vec_normalize_env()
-        if normalizer is not None:
-            latest["vecnormalize"] = f"vecnormalize_{steps}_steps.pkl"
-            normalizer.save(str(self.checkpoints / latest["vecnormalize"]))
-        if getattr(self.model, "replay_buffer", None) is not None:
-            latest["replay_buffer"] = f"replay_buffer_{steps}_steps.pkl"
-            self.model.save_replay_buffer(self.checkpoints / latest["replay_buffer"])
-        atomic_write_text(self.checkpoints / "latest.json", json.dumps(latest) + "\n")
-        keep = {latest["model"], latest["vecnormalize"], latest["replay_buffer"], "latest.json"}
-        for path in self.checkpoints.iterdir():
-            if path.name not in keep:
-                path.unlink(missing_ok=True)
-
-    def _save(self, model_name: str, stats_name: str) -> None:
-        """The model (and its VecNormalize statistics) under a name, replaced atomically."""
-        temporary = self.dir / f".{model_name}.tmp.zip"
-        self.model.save(temporary)
-        os.replace(temporary, self.dir / model_name)
-        normalizer = self.model.get_vec_normalize_env()
-        if normalizer is not None:
-            normalizer.save(str(self.dir / f".{stats_name}.tmp"))
-            os.replace(self.dir / f".{stats_name}.tmp", self.dir / stats_name)
-
-    def _write_csv(self, rows: list[dict[str, float]]) -> None:
-        lines = [",".join(EVAL_COLUMNS)]
-        lines += [",".join(_number(row[k]) for k in EVAL_COLUMNS) for row in rows]
-        atomic_write_text(self.dir / files.EVAL_CSV, "\n".join(lines) + "\n")
-        self.rows = list(rows)
-
-    def _write_run(self, status: str) -> None:
-        job = self.job
-        run = {
-            "format": RUN_FORMAT,
-            "algo": job.algo,
-            "env": job.env_id,
-            "seed": job.seed,
-            "status": status,
-            "settings": job.settings(),
-            "config": job.hyperparams.source,
-            "eval_seed": EVAL_SEED,
-            "timesteps": self.start if status == "running" else self.model.num_timesteps,
-            "versions": _versions(),
-            "command": sys.argv,
-        }
-        atomic_write_text(self.dir / files.RUN_JSON, json.dumps(run, indent=2) + "\n")
-
-    def close(self) -> None:
-        self.bar.close()
-        self.eval_env.close()
-        self.venv.close()
+        steps = int(model.num_timesteps)
+        if interrupt.seen:
+            saving.save()
+            _write_run(job, "interrupted", steps)
+            return steps
+        if not evaluation.rows or evaluation.rows[-1]["timesteps"] != steps:
+            evaluation.evaluate()
+        saving.save()
+        callbacks.save_model(model, directory, files.FINAL_MODEL, files.FINAL_VECNORMALIZE)
+        _write_run(job, "finished", steps)
+        return steps
 
 
-def _policy_act(model: Any) -> Act:
-    """The model's deterministic policy on raw observations (normalised as in training)."""
-    normalizer = model.get_vec_normalize_env()
-
-    def act(obs: Any) -> Any:
-        seen = normalizer.normalize_obs(obs) if normalizer is not None else obs
-        action, _ = model.predict(seen, deterministic=True)
-        return action
-
-    return act
-
-
-def _better(row: dict[str, float], best: dict[str, Any]) -> bool:
-    """Higher success rate; at equal success, higher mean reward."""
-    if not best:
-        return True
-    return (row["success_rate"], row["mean_reward"]) > (
-        best["success_rate"],
-        best["mean_reward"],
+def _vec_env(job: TrainJob, seed: int) -> Any:
+    """The training envs: in spawned worker processes when there are several."""
+    tools = vec_env_tools()
+    many = job.n_envs > 1
+    return tools.make_vec_env(
+        functools.partial(worker_env, job.env_id, many),
+        n_envs=job.n_envs,
+        seed=seed,
+        env_kwargs=job.hyperparams.env_kwargs,
+        vec_env_cls=tools.SubprocVecEnv if many else tools.DummyVecEnv,
+        vec_env_kwargs={"start_method": "spawn"} if many else None,
     )
 
 
-def _next_multiple(steps: int, every: int) -> int:
-    return (steps // every + 1) * every
+def _fresh(job: TrainJob, venv: Any) -> Any:
+    """A new model on ``venv`` (normalised if the entry says so); files of an earlier start
+    in the directory that never reached a checkpoint are removed."""
+    hp = job.hyperparams
+    directory = Path(job.out)
+    directory.mkdir(parents=True, exist_ok=True)
+    venv = _normalized(venv, hp.normalize)
+    model = algorithm_class(job.algo)(
+        policy_for(hp, venv.observation_space),
+        venv,
+        seed=job.seed,
+        device="cpu",
+        verbose=0,
+        tensorboard_log=str(directory / files.TENSORBOARD),
+        **algorithm_kwargs(hp),
+    )
+    for stale in (files.EVAL_CSV, files.BEST_JSON, files.BEST_MODEL, files.BEST_VECNORMALIZE):
+        (directory / stale).unlink(missing_ok=True)
+    _write_run(job, "running", 0)
+    print(f"{directory}: training {job.key} on {job.env_id}", file=sys.stderr)
+    return model
 
 
-def _number(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() else repr(float(value))
+def _resumed(job: TrainJob, venv: Any, checkpoint: dict[str, Any]) -> Any:
+    """The checkpoint's model (with its VecNormalize statistics and replay buffer) on
+    ``venv``, reseeded for the steps done; the eval rows after the checkpoint are dropped (they
+    are measured again)."""
+    directory = Path(job.out)
+    checkpoints = directory / files.CHECKPOINTS
+    start = int(checkpoint["steps"])
+    if checkpoint.get("vecnormalize"):
+        stats = checkpoints / checkpoint["vecnormalize"]
+        venv = vec_env_tools().VecNormalize.load(str(stats), venv)
+    model = algorithm_class(job.algo).load(
+        checkpoints / checkpoint["model"],
+        env=venv,
+        device="cpu",
+        tensorboard_log=str(directory / files.TENSORBOARD),
+    )
+    model.set_random_seed(job.seed + start)
+    if checkpoint.get("replay_buffer"):
+        model.load_replay_buffer(checkpoints / checkpoint["replay_buffer"])
+    rows = files.read_eval_csv(directory / files.EVAL_CSV)
+    files.write_eval_csv(directory / files.EVAL_CSV, [r for r in rows if r["timesteps"] <= start])
+    print(f"{directory}: resuming {job.key} from step {start}", file=sys.stderr)
+    return model
+
+
+def _eval_env(job: TrainJob) -> tuple[Any, EvalEpisodes]:
+    """The evaluation env (one, in this process) as SB3's EvalCallback takes it: a vector env,
+    under VecNormalize when training normalises (its statistics are synced from training
+    before each evaluation; rewards stay raw), and the `EvalEpisodes` inside it."""
+    from agents.learning.callbacks import EvalEpisodes
+
+    hp = job.hyperparams
+    episodes = EvalEpisodes(files.make_env(job.env_id, **hp.env_kwargs), EVAL_SEED)
+    venv = vec_env_tools().DummyVecEnv([lambda: episodes])
+    if hp.normalize is not None:
+        venv = _normalized(venv, {**hp.normalize, "training": False, "norm_reward": False})
+    return venv, episodes
+
+
+def _write_run(job: TrainJob, status: str, timesteps: int) -> None:
+    run = {
+        "format": RUN_FORMAT,
+        "algo": job.algo,
+        "env": job.env_id,
+        "seed": job.seed,
+        "status": status,
+        "settings": job.settings(),
+        "config": job.hyperparams.source,
+        "eval_seed": EVAL_SEED,
+        "timesteps": timesteps,
+        "versions": _versions(),
+        "command": sys.argv,
+    }
+    atomic_write_text(Path(job.out) / files.RUN_JSON, json.dumps(run, indent=2) + "\n")
 
 
 def _versions() -> dict[str, str]:
