@@ -1,11 +1,11 @@
 """`clutter-gym train` and `clutter-gym plot-training`.
 
-Bad input is one line, exit status 2, before any training; a tiny PPO run leaves its evaluation
-CSV (rows measured as `clutter-gym evaluate` measures), TensorBoard log, checkpoint, best and
-final models and run.json; Ctrl-C saves a checkpoint and the same command resumes from it (an
-off-policy run with its replay buffer), and so does a run killed by SIGKILL from its last
-periodic checkpoint; a finished run does nothing; a grid on Ray gives the local grid's numbers;
-the training plot is a PNG.
+Bad input is one line, exit status 2, before any training; the configs of the results are the
+algorithm's defaults with overrides; a tiny PPO run leaves its evaluation CSV (rows measured as
+`clutter-gym evaluate` measures), TensorBoard log, checkpoint, best and final models and run.json;
+Ctrl-C saves a checkpoint and the same command resumes from it (an off-policy run with its replay
+buffer), and so does a run killed by SIGKILL from its last periodic checkpoint; a finished run
+does nothing; a grid on Ray gives the local grid's numbers; the training plot is a PNG.
 
 Runs are tiny (a few hundred env steps of 20-step episodes) and their numbers mean nothing
 about learning: the dense variant is used because its returns are real numbers, so that equal
@@ -83,6 +83,9 @@ BAD_ENTRIES: list[tuple[str, dict[str, Any], tuple[str, ...]]] = [
     ("bad value", {**TINY_PPO, "batch_size": "big"}, ("ppo cannot use this entry",)),
     ("env keyword", {**TINY_PPO, "env_kwargs": {"level": "extreme"}}, ("env_kwargs", "extreme")),
     ("budget", {**TINY_PPO, "n_timesteps": -5}, ("n_timesteps", "must be >= 1")),
+    ("base missing", {**TINY_PPO, "base": "nope.yml"}, ("base ", "nope.yml", "cannot be read")),
+    ("base is itself", {**TINY_PPO, "base": "tiny.yml"}, ("base: tiny.yml is this entry",)),
+    ("base's key", {**TINY_PPO, "base": "bad.yml"}, ("bad.yml", "unknown key 'n_step'")),
 ]
 
 
@@ -115,6 +118,7 @@ def test_bad_config_entries_are_one_line_before_any_work(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
+    write_config(tmp_path / "bad.yml", {"n_step": 64})
     config = write_config(tmp_path / "tiny.yml", entry)
     code, _, err = run(train_argv(config, tmp_path / "run"), capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1, err
@@ -149,6 +153,87 @@ def test_shipped_hyperparameters_name_registered_ids_and_known_keys() -> None:
             assert her == (algo != "ppo" and env_id.startswith("ClutterRetrieveEE")), env_id
             if "gamma" in hp.env_kwargs:  # the dense reward shapes with the agent's discount
                 assert hp.env_kwargs["gamma"] == hp.algo_kwargs["gamma"]
+
+
+# The configs of the results as they were when each repeated its algorithm's entry in full.
+RESULT_COPIES = {
+    "ppo_primitive_medium.yml": """
+ClutterRetrievePrimitive-v0:
+  policy: MlpPolicy
+  n_timesteps: 10000
+  n_envs: 2
+  env_kwargs: {level: medium, noise: sigma2}
+  n_steps: 128
+  batch_size: 64
+  n_epochs: 10
+  learning_rate: 0.0003
+  gamma: 0.95
+  gae_lambda: 0.95
+  ent_coef: 0.01
+  policy_kwargs: {net_arch: [128, 128]}
+""",
+    "ppo_primitive_none.yml": """
+ClutterRetrievePrimitive-v0:
+  policy: MlpPolicy
+  n_timesteps: 10000
+  n_envs: 2
+  env_kwargs: {level: none, noise: sigma2}
+  n_steps: 128
+  batch_size: 64
+  n_epochs: 10
+  learning_rate: 0.0003
+  gamma: 0.95
+  gae_lambda: 0.95
+  ent_coef: 0.01
+  policy_kwargs: {net_arch: [128, 128]}
+""",
+    "tqc_lone_can.yml": """
+ClutterRetrieveEE-v0:
+  policy: MultiInputPolicy
+  n_timesteps: 300000
+  n_envs: 1
+  env_kwargs: {level: none, goal_kind: soda_can, noise: sigma1}
+  buffer_size: 300000
+  learning_starts: 1000
+  batch_size: 256
+  learning_rate: 0.001
+  gamma: 0.95
+  tau: 0.05
+  replay_buffer_class: HerReplayBuffer
+  replay_buffer_kwargs: {goal_selection_strategy: future, n_sampled_goal: 4, copy_info_dict: true}
+  policy_kwargs: {net_arch: [256, 256], n_critics: 2}
+""",
+}
+
+
+@pytest.mark.parametrize("name", sorted(RESULT_COPIES))
+def test_result_configs_override_only_what_differs_and_load_as_their_full_copies(
+    name: str, tmp_path: Path
+) -> None:
+    algo = name.split("_")[0]
+    path = HYPERPARAMS / name
+    ((env_id, entry),) = yaml.safe_load(path.read_text()).items()
+    base = yaml.safe_load((HYPERPARAMS / entry["base"]).read_text())[env_id]
+    for key, value in entry.items():
+        if key != "base":
+            assert value != base.get(key), f"{name}: {key} repeats its base"
+    copy = tmp_path / name
+    copy.write_text(RESULT_COPIES[name])
+    loaded, expected = load_hyperparams(algo, env_id, path), load_hyperparams(algo, env_id, copy)
+    assert {**loaded.as_dict(), "source": None} == {**expected.as_dict(), "source": None}
+
+
+def test_an_override_merges_mappings_and_replaces_other_values(tmp_path: Path) -> None:
+    """A config anywhere may build on a shipped file (a path relative to itself, or absolute)."""
+    entry = {"base": str(HYPERPARAMS / "ppo.yml"), "env_kwargs": {"level": "none"}, "n_steps": 32}
+    config = write_config(tmp_path / "mine.yml", entry)
+    shipped = load_hyperparams("ppo", TRAIN_ENV)
+    hp = load_hyperparams("ppo", TRAIN_ENV, config)
+    assert hp.env_kwargs == {**shipped.env_kwargs, "level": "none"}
+    assert hp.algo_kwargs == {**shipped.algo_kwargs, "n_steps": 32}
+    assert (hp.policy, hp.normalize, hp.n_timesteps) == (
+        shipped.policy, shipped.normalize, shipped.n_timesteps
+    )
 
 
 @pytest.mark.parametrize("algo", ALGOS)

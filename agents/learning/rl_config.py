@@ -4,8 +4,10 @@ per algorithm (`agents/hyperparams/<algo>.yml`, shipped with the package), one e
 An entry holds the zoo's own keys (`ZOO_KEYS`: the default budget and number of envs, the
 policy, VecNormalize, the env's keywords) and keywords of the algorithm's class, taken from its
 signature so that every keyword stable-baselines3 or sb3-contrib accepts is accepted and a typo
-is not. A config is checked whole before any training starts: an unknown algorithm, env id or
-key is one line that lists the allowed ones.
+is not. An entry may name a `BASE`: another file whose entry for the same env id it overrides
+(the configs of the results in `agents/hyperparams/` hold only what differs from the defaults).
+A config is checked whole before any training starts: an unknown algorithm, env id or key is one
+line that lists the allowed ones.
 
 The RL libraries (the `rl` extra) are imported only when a command needs them, so that the rest
 of the command line works without them.
@@ -24,6 +26,9 @@ HYPERPARAMS = Path(__file__).resolve().parents[1] / "hyperparams"
 RL_EXTRA = "install the rl extra: pip install -e '.[rl]'"
 ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
 """Keys of an entry that are not keywords of the algorithm (rl-baselines3-zoo's names)."""
+BASE = "base"
+"""The key naming the file (a path relative to the one holding the entry) whose entry for the
+same env id this one overrides: its mappings merged key by key, any other value replaced."""
 SET_BY_TRAIN = frozenset(
     ("self", "env", "seed", "verbose", "device", "tensorboard_log", "_init_setup_model")
 )
@@ -115,7 +120,7 @@ def allowed_keys(algo: str) -> tuple[str, ...]:
     """The keys an entry of ``algo`` may hold, sorted."""
     parameters = inspect.signature(algorithm_class(algo).__init__).parameters
     own = set(parameters) - SET_BY_TRAIN - NOT_IN_YAML
-    return tuple(sorted(own | set(ZOO_KEYS)))
+    return tuple(sorted(own | set(ZOO_KEYS) | {BASE}))
 
 
 def default_config(algo: str) -> Path:
@@ -142,22 +147,11 @@ def read_yaml(path: Path, flag: str) -> dict[str, Any]:
 
 
 def load_hyperparams(algo: str, env_id: str, config: Path | None = None) -> Hyperparams:
-    """The entry of ``env_id`` in ``config`` (default: the shipped file of ``algo``), checked."""
+    """The entry of ``env_id`` in ``config`` (default: the shipped file of ``algo``) over its
+    bases, checked."""
     path = config or default_config(algo)
     where = f"--config {path}" if config else str(path)
-    entries = read_yaml(path, "--config")
-    if env_id not in entries:
-        ids = ", ".join(map(str, entries)) or "none"
-        raise ValueError(f"{where} has no entry for {env_id}; it has: {ids}")
-    entry = entries[env_id]
-    if not isinstance(entry, dict):
-        raise ValueError(f"{where}: {env_id}: expected a mapping of hyperparameters")
-    allowed = allowed_keys(algo)
-    for key in entry:
-        if key not in allowed:
-            raise ValueError(
-                f"{where}: {env_id}: unknown key {key!r} for {algo}; allowed: {', '.join(allowed)}"
-            )
+    entry = _entry(algo, env_id, path, where, "--config", ())
     kwargs = {k: v for k, v in entry.items() if k not in ZOO_KEYS}
     hp = Hyperparams(
         algo=algo,
@@ -173,6 +167,50 @@ def load_hyperparams(algo: str, env_id: str, config: Path | None = None) -> Hype
     )
     algorithm_kwargs(hp)  # names of schedules, activations and buffers are checked now
     return hp
+
+
+def _entry(
+    algo: str, env_id: str, path: Path, where: str, flag: str, overridden_by: tuple[Path, ...]
+) -> dict[str, Any]:
+    """The entry of ``env_id`` in the file ``path`` (its keys checked) over its `BASE`, if it
+    names one; ``flag`` names the file in messages about reading it; ``overridden_by``: the
+    files whose entries build on this one."""
+    entries = read_yaml(path, flag)
+    if env_id not in entries:
+        ids = ", ".join(map(str, entries)) or "none"
+        raise ValueError(f"{where} has no entry for {env_id}; it has: {ids}")
+    entry = entries[env_id]
+    if not isinstance(entry, dict):
+        raise ValueError(f"{where}: {env_id}: expected a mapping of hyperparameters")
+    allowed = allowed_keys(algo)
+    for key in entry:
+        if key not in allowed:
+            raise ValueError(
+                f"{where}: {env_id}: unknown key {key!r} for {algo}; allowed: {', '.join(allowed)}"
+            )
+    if BASE not in entry:
+        return entry
+    overrides = {k: v for k, v in entry.items() if k != BASE}
+    name = _text(entry[BASE], where, env_id, BASE)
+    base = (path.parent / name).resolve()
+    chain = (*overridden_by, path.resolve())
+    if base in chain:
+        raise ValueError(f"{where}: {env_id}: {BASE}: {name} is this entry or builds on it")
+    flag = f"{where}: {env_id}: {BASE}"
+    under = _entry(algo, env_id, base, f"{where}: {BASE} {base}", flag, chain)
+    return _merged(under, overrides)
+
+
+def _merged(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """``base`` with ``overrides``: a mapping over a mapping merges key by key (a result's
+    env_kwargs keep the entry's), any other value replaces the base's."""
+    merged = dict(base)
+    for key, value in overrides.items():
+        under = merged.get(key)
+        if isinstance(under, dict) and isinstance(value, dict):
+            value = _merged(under, value)
+        merged[key] = value
+    return merged
 
 
 def _text(value: object, where: str, env_id: str, key: str) -> str:
