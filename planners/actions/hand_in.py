@@ -28,7 +28,7 @@ from planners.actions.grasp_geometry import (
 )
 from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
-from planners.hand2d import PushGraspProfile
+from planners.hand2d import PushGraspProfile, closure_for_aperture
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 CLOSING_TURNS = 6
@@ -118,7 +118,7 @@ def pick_up_or_release(
         turning = closing(ctx, name, nu[-1])
         if turned_into(ctx, name, turning, avoid):
             return Failure(name, action, TURNS_INTO_AVOID)
-        if not fingers_close_free(arm, moved, avoid):
+        if not fingers_close_free(ctx, arm, name, moved, avoid):
             return Failure(name, action, FINGERS_INTO_AVOID)
         finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
         if finish is None:
@@ -147,11 +147,16 @@ TURNS_INTO_AVOID = "the object turning in the closing hand sweeps into avoidVol"
 FINGERS_INTO_AVOID = "the closing fingers sweep into avoidVol"
 
 
-def fingers_close_free(arm: Arm, moved: HandIn, avoid: Volume) -> bool:
-    """Whether the fingers, closing from the push's preshape to the grasp where the hand
-    stopped, stay clear of avoidVol: a neighbour standing between the open fingers of a wide
-    preshape, clear of the hand itself, would be swept along with the object."""
-    return arm.hand_change_free(moved.q_end, moved.push.hand, CLOSED_HAND, avoid)
+def fingers_close_free(
+    ctx: PlanningContext, arm: Arm, name: str, moved: HandIn, avoid: Volume
+) -> bool:
+    """Whether the fingers, closing from the push's preshape until their tips are as far apart
+    as the object is wide (where they meet it), stay clear of avoidVol: a neighbour standing
+    between the open fingers of a wide preshape, clear of the hand itself, would be swept along
+    with the object. The fingers stop on the object, so closing further sweeps nothing."""
+    width = ctx.beliefs[name].spec.footprint.min_width
+    meets = HandCommand(0.0, max(closure_for_aperture(width), moved.push.hand.closure))
+    return arm.hand_change_free(moved.q_end, moved.push.hand, meets, avoid)
 
 
 def closing(ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:

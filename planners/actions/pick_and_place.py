@@ -53,7 +53,7 @@ def place(
     turning = closing(ctx, name, moved.nu[-1])
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
-    if not fingers_close_free(arm, moved, avoid):
+    if not fingers_close_free(ctx, arm, name, moved, avoid):
         return Failure(name, ACTION, FINGERS_INTO_AVOID)
     in_hand = turning.reshape(-1, 3)  # every pose the held object may have
     closed = HandCommand(0.0, GRASP_CLOSURE)
