@@ -22,6 +22,7 @@ from clutter_gym.model.objects import get_object
 from clutter_gym.model.scene import load_scene
 from clutter_gym.model.trajectory import chunk_rows
 from clutter_gym.model.world import TABLE
+from planners.actions.results import Failure, FailureLog
 from planners.actions.settings import PlannerSettings
 from planners.rearrange import Plan, plan_retrieval
 from planners.uncertainty import ObjectBelief, sample_poses
@@ -259,3 +260,14 @@ def test_pushing_moves_no_more_objects_than_pick_and_place() -> None:
         assert result.success, (planner, result.blocked_by[:3])
         moved[planner] = result.objects_moved
     assert len(moved["pushing"]) <= len(moved["pick-and-place"]) == 1
+
+
+def test_failure_log_ranks_the_objects_that_blocked_an_objects_actions() -> None:
+    log = FailureLog()
+    for blocker in ("box", "can", "box", "", "box", "can", "bottle"):
+        log.record(
+            Failure("goal", "pickup", f"the hand overlaps {blocker} where it stops", blocker)
+        )
+    log.record(Failure("can", "sweep", "the hand overlaps bottle where the sweep starts", "bottle"))
+    assert log.blocking("goal") == ["box", "can", "bottle"]
+    assert log.blocking("can") == ["bottle"] and log.blocking("box") == []
