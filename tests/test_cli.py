@@ -109,6 +109,23 @@ def test_validate_capture_small_run_and_resume(tmp_path: Path) -> None:
     assert log.read_text().count("\n") == lines
 
 
+def test_validate_capture_every_aperture_writes_one_table(tmp_path: Path) -> None:
+    from clutter_gym.model.objects import get_object
+    from planners.capture import push_grasp_apertures
+
+    apertures = push_grasp_apertures(get_object("soda_can").footprint)
+    out, table = tmp_path / "can.json", tmp_path / "can.md"
+    argv = ["validate-capture", "--object", "can", "--aperture", "all", "--trials", "2"]
+    argv += ["--rotations", "0", "--workers", "1", "--json", str(out), "--md", str(table)]
+    assert main(argv) == 0
+    for aperture in apertures:
+        report = json.loads((tmp_path / f"can_{aperture:.3f}.json").read_text())
+        assert report["aperture_m"] == aperture
+    rows = table.read_text().splitlines()[2:]
+    assert [row.split(" | ")[2] for row in rows] == [f"{a:.3f}" for a in apertures]
+    assert all(row.startswith("| soda_can | push-grasp |") for row in rows)
+
+
 def test_capture_region_figure(tmp_path: Path) -> None:
     png = tmp_path / "fig.png"
     assert main(["capture-region", "--object", "bottle", "--out", str(png)]) == 0

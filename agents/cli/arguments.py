@@ -48,6 +48,11 @@ def positive_number(text: str) -> float:
     return value
 
 
+def number_or_all(text: str) -> float | str:
+    """A finite number > 0, or "all"."""
+    return "all" if text == "all" else positive_number(text)
+
+
 def numbers(text: str) -> tuple[float, ...]:
     """A comma-separated, non-empty list of finite numbers."""
     try:

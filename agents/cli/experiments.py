@@ -17,6 +17,7 @@ from agents.cli.arguments import (
     integer,
     names,
     noise,
+    number_or_all,
     numbers,
     output_dir,
     output_file,
@@ -193,13 +194,17 @@ def add_validate_capture(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials", type=COUNT, default=1000, help="grid poses per rotation")
     parser.add_argument(
         "--aperture",
-        type=positive_number,
+        type=number_or_all,
         default=None,
-        help="push-grasp preshape, m between the fingertips (default: one that fits the object "
-        "at any orientation; the planner's are listed by planners.capture.push_grasp_apertures)",
+        help="push-grasp preshape, m between the fingertips, or 'all': every aperture the "
+        "planner searches for the object (planners.capture.push_grasp_apertures), one report "
+        "each, JSON_<aperture>.json (default: one that fits the object at any orientation)",
     )
     parser.add_argument(
         "--json", type=output_file, required=True, help="report; its trials log goes beside it"
+    )
+    parser.add_argument(
+        "--md", type=output_file, default=None, help="a table of the reports as Markdown"
     )
     parser.add_argument(
         "--rotations", type=numbers, default="0,45", help="scene rotations in degrees"
@@ -210,34 +215,31 @@ def add_validate_capture(parser: argparse.ArgumentParser) -> None:
 def run_validate_capture(args: argparse.Namespace) -> int:
     from agents.experiments.capture_objects import resolve_kind
 
-    resolve_kind(args.object, args.action)  # before the simulator loads
+    kind = resolve_kind(args.object, args.action)  # before the simulator loads
+    apertures: list[float | None] = [args.aperture]
+    if args.aperture == "all":
+        if args.action != "push-grasp":
+            raise ValueError("--aperture: only push-grasps take an aperture (sweeps use one)")
+        from clutter_gym.model.objects import get_object
+        from planners.capture import push_grasp_apertures
 
-    from agents.experiments.validate_capture import validate
+        apertures = list(push_grasp_apertures(get_object(kind).footprint))
 
-    report = validate(
-        args.object,
-        args.trials,
-        args.json,
-        args.rotations,
-        args.workers,
-        args.action,
-        args.aperture,
-    )
-    for rotation in args.rotations:
-        print(
-            json.dumps(
-                {
-                    "object": report["object"],
-                    "aperture_m": report["aperture_m"],
-                    "rotation_deg": rotation,
-                    **{
-                        k: v
-                        for k, v in report[f"rotation_{rotation:g}deg"].items()
-                        if k != "failures_inside_examples"
-                    },
-                }
-            )
+    from agents.experiments.validate_capture import summary_lines, validate, write_markdown
+
+    reports = []
+    for aperture in apertures:
+        out = args.json
+        if len(apertures) > 1:
+            out = args.json.with_name(f"{args.json.stem}_{aperture:.3f}{args.json.suffix}")
+        report = validate(
+            args.object, args.trials, out, args.rotations, args.workers, args.action, aperture
         )
+        reports.append(report)
+        for line in summary_lines(report, args.rotations):
+            print(json.dumps(line))
+    if args.md is not None:
+        write_markdown(reports, args.rotations, args.md)
     return 0
 
 

@@ -54,6 +54,7 @@ import numpy as np
 from agents.experiments.capture_objects import ACTIONS, resolve_kind
 from agents.policies.rollout import roll_out
 from agents.runner.jobs import NumberedTrial, config_digest, run_jobs
+from agents.runner.markdown import markdown_table
 from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.media import write_json
 from clutter_gym.model import herb as hm
@@ -668,3 +669,47 @@ def validate(
     report["trials"] = [asdict(t) for t in results]
     write_json(out, report)
     return report
+
+
+def summary_lines(report: dict[str, Any], rotations: Sequence[float]) -> list[dict[str, Any]]:
+    """One JSON line per rotation: the report's counts without the trial examples."""
+    return [
+        {
+            "object": report["object"],
+            "action": report["action"],
+            "aperture_m": report["aperture_m"],
+            "rotation_deg": rotation,
+            **{
+                k: v
+                for k, v in report[f"rotation_{rotation:g}deg"].items()
+                if k != "failures_inside_examples"
+            },
+        }
+        for rotation in rotations
+    ]
+
+
+MARKDOWN_HEADER = (
+    "object", "action", "aperture [m]", "rotation [deg]", "run", "skipped", "held",
+    "predicted inside", "failures inside", "failures at the edge", "tightness",
+)
+
+
+def write_markdown(
+    reports: Sequence[dict[str, Any]], rotations: Sequence[float], path: Path
+) -> None:
+    """The reports as one Markdown table, a row per region and rotation: "held" counts the
+    physical successes, "tightness" the share of them the region predicts."""
+    rows = []
+    for line in (line for report in reports for line in summary_lines(report, rotations)):
+        tightness = line["tightness"]
+        rows.append(
+            (
+                line["object"], line["action"], f"{line['aperture_m']:.3f}",
+                f"{line['rotation_deg']:g}", line["trials"], line["skipped"],
+                line["physical_successes"], line["predicted_inside"], line["failures_inside"],
+                line["failures_at_edge"], None if tightness is None else f"{tightness:.2f}",
+            )
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(markdown_table(MARKDOWN_HEADER, rows)) + "\n")
