@@ -151,6 +151,36 @@ def test_agents_trained_on_other_scenes_need_the_evaluations_scenes(
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("corrupt", ["final_model.zip", "vecnormalize.pkl"])
+def test_an_agent_that_cannot_be_loaded_is_one_line_before_any_episode(
+    corrupt: str, trained: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    for name in ("run.json", "final_model.zip", "vecnormalize.pkl"):
+        (broken / name).write_bytes((trained / name).read_bytes())
+    (broken / corrupt).write_bytes(b"not a model")
+    code, _, err = run(evaluate_argv(tmp_path, "planner:pg", str(broken)), capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert str(broken) in err and "cannot load" in err
+    assert not (tmp_path / "eval.json").exists()
+    assert not (tmp_path / "eval.json.jobs.jsonl").exists()
+
+
+def test_a_crashed_episode_is_a_failure_the_summary_counts() -> None:
+    from agents.learning.agent_specs import parse_agent
+    from agents.learning.evaluate import summarize
+
+    agent = parse_agent("planner:pg")
+    ran = {"agent": "planner:pg", "env": "ClutterRetrieve-v0", "success": True, "length": 1,
+           "n_objects_moved": 0, "wall_time_s": 2.0}
+    crashed = {"agent": "planner:pg", "env": "ClutterRetrieve-v0", "success": False,
+               "crashed": "RuntimeError: boom"}
+    cell = summarize([agent], [ran, crashed])["planner:pg"]
+    assert cell["episodes"] == 2 and cell["successes"] == 1 and cell["success_rate"] == 0.5
+    assert cell["crashed"] == 1 and cell["mean_length"] == 1.0
+
+
 def test_scenes_an_agents_env_refuses_are_one_line_before_any_work(
     trained: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -107,6 +107,7 @@ def add_evaluate(parser: argparse.ArgumentParser) -> None:
 
 def run_evaluate(args: argparse.Namespace) -> int:
     from agents.learning.evaluate import (
+        check_agents,
         check_envs,
         plan_episodes,
         run_evaluation,
@@ -123,6 +124,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     scenes = scene_keywords(args.agent, {k: v for k, v in given.items() if v is not None})
     jobs = plan_episodes(args.agent, args.episodes, args.seed, scenes, args.budget)
     check_envs(jobs)
+    check_agents(jobs)
     report = run_evaluation(
         args.agent, args.env, jobs, args.json, args.md, args.workers, args.backend
     )

@@ -111,6 +111,28 @@ def check_envs(jobs: list[EvalJob]) -> None:
             raise ValueError(f"{job.agent.label}: {job.env_id}: {error}") from None
 
 
+def check_agents(jobs: list[EvalJob]) -> None:
+    """Load each trained agent once, in its own env, so that a corrupt model or statistics
+    file is one line now rather than every episode recorded as crashed and scored 0%."""
+    seen = set()
+    for job in jobs:
+        run = job.agent.run
+        if run is None or job.agent.label in seen:
+            continue
+        seen.add(job.agent.label)
+        env = make_env(job.env_id, **job.env_kwargs)
+        try:
+            with one_torch_thread():
+                run.make_act(env)
+        except Exception as error:  # whatever the zip or pickle raised: the file is unusable
+            raise ValueError(
+                f"{job.agent.label}: cannot load {run.model.name} or its statistics "
+                f"({type(error).__name__}: {error})"
+            ) from None
+        finally:
+            env.close()
+
+
 # --------------------------------------------------------------------------------------------
 # One episode (in a worker)
 # --------------------------------------------------------------------------------------------
