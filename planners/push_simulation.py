@@ -19,6 +19,10 @@ from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import rotation_2d
 from planners.pushing import MAX_CONTACTS, positive, single_contact_twist, solve_contacts
 
+MAX_SPEED_RATIO = 10.0
+"""The fastest an object point may move, in pusher speeds, before a contact solution is
+taken for a degenerate one (`_contact_twist`)."""
+
 
 # --------------------------------------------------------------------------------------------
 # Pusher geometry and contact detection
@@ -359,7 +363,8 @@ def simulate_push(
         busy = np.flatnonzero(~free & (move > 0))
         if busy.size:
             twist[busy], touching[busy] = _contact_twist(
-                footprint, pusher, p[busy], mu[active[busy]], c[active[busy]], move[busy], margin
+                footprint, pusher, p[busy], mu[active[busy]], c[active[busy]], move[busy], margin,
+                step,
             )
         rot = rotation_2d(p[:, 2])
         world = np.einsum("nij,nj->ni", rot, twist[:, :2]) * move[:, None]
@@ -390,6 +395,7 @@ def _contact_twist(
     c: np.ndarray,
     move: np.ndarray,
     margin: float,
+    step: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Twists (object frame, per unit push) for samples near the pusher, and whether they touch.
 
@@ -406,7 +412,10 @@ def _contact_twist(
     r = np.einsum("nij,nkj->nki", rot_t, point - poses[:, None, :2])
     n = np.einsum("nij,nkj->nki", rot_t, normal)
     push_dir = rot_t[:, :, 0]  # the pusher's +x in the object frame
-    vp = push_dir[:, None, :] - (gap / move[:, None])[..., None] * n
+    # A step cut short by a checkpoint may be tiny: the gap still closes at most at the rate
+    # a full step closes it (margin / step), never at gap / 1e-15, which flings the object.
+    closing = np.clip(gap / move[:, None], -margin / step, margin / step)
+    vp = push_dir[:, None, :] - closing[..., None] * n
     twist = np.zeros((len(poses), 3))
     one = np.flatnonzero(count == 1)
     if one.size:
@@ -416,6 +425,13 @@ def _contact_twist(
         if idx.size:
             sol = solve_contacts(r[idx, :m], n[idx, :m], vp[idx, :m], mu[idx], c[idx])
             twist[idx] = sol.twist
-            jam = idx[sol.jammed]
+            # A nearly degenerate contact set (two normals at one corner, high friction) can
+            # give a solution whose points outrun the pusher many times over: no quasi-static
+            # push does that, so such a sample is held like a jammed one.
+            radius = footprint.bounding_radius
+            speed = np.hypot(*sol.twist[:, :2].T) + radius * np.abs(sol.twist[:, 2])
+            pusher_speed = np.abs(vp[idx, :m]).max((1, 2))
+            runaway = speed > MAX_SPEED_RATIO * np.maximum(pusher_speed, 1.0)
+            jam = idx[sol.jammed | runaway]
             twist[jam, :2], twist[jam, 2] = push_dir[jam], 0.0
     return twist, count > 0
