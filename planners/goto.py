@@ -65,6 +65,10 @@ def _request_error(
     return ""
 
 
+PLAN_ATTEMPTS = 3
+"""OMPL runs (seeds seed, seed + 1, ...) before a path that fails the dense re-check is final."""
+
+
 def _reseed(seed: int) -> None:
     """Seed OMPL's RNGs created from now on; OMPL ignores seed 0, so seeds are shifted by one.
 
@@ -243,22 +247,28 @@ def plan_goto(
     direct = np.stack([q0, q1])
     if constraint is None and all(count.free(q) for q in interpolate(direct, resolution)[1:-1]):
         return result(direct, "")
-    level = ou.getLogLevel()
-    ou.setLogLevel(ou.LogLevel.LOG_WARN)
-    try:
-        _reseed(seed)
-        path = _ompl_plan(
-            q0, q1, count.free_within_budget, lo, hi, count.stop, resolution, constraint,
-            count.add_jacobian,
-        )
-    finally:
-        ou.setLogLevel(level)
-    if path is None:
-        if count.spent():
-            return result(None, f"no path found within {max_evaluations} evaluations")
-        return result(None, f"no path found within {time_budget:g} s")
-    error = _path_error(path, count.free, resolution, constraint)
-    return result(None if error else path, error)
+    # OMPL checks each motion at its own sample points: a path it found can still touch an
+    # obstacle between them, which the dense re-check catches; the next seed plans around it.
+    error = ""
+    for attempt in range(PLAN_ATTEMPTS):
+        level = ou.getLogLevel()
+        ou.setLogLevel(ou.LogLevel.LOG_WARN)
+        try:
+            _reseed(seed + attempt)
+            path = _ompl_plan(
+                q0, q1, count.free_within_budget, lo, hi, count.stop, resolution, constraint,
+                count.add_jacobian,
+            )
+        finally:
+            ou.setLogLevel(level)
+        if path is None:
+            if count.spent():
+                return result(None, f"no path found within {max_evaluations} evaluations")
+            return result(None, f"no path found within {time_budget:g} s")
+        error = _path_error(path, count.free, resolution, constraint)
+        if not error:
+            return result(path, "")
+    return result(None, error)
 
 
 class _Evaluations:
