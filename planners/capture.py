@@ -250,6 +250,17 @@ class SweepRegion:
         inside = ok & (contact >= 0) & (contact <= distance) & (escape > distance)
         return inside, np.where(inside, contact, np.inf)
 
+    def holds_until(self, poses: np.ndarray) -> float:
+        """The longest sweep that keeps every pose (the region's escape distances: a sample
+        lost at one distance is lost at every longer one); 0 if some pose is never held."""
+        p = _check_poses(poses)
+        flat, ok = self.grid.cells(p, self.s_contact.shape)
+        if not ok.all():
+            return 0.0
+        shift = p[:, 0] - self.grid.x_start
+        escape = float((self.s_escape.ravel()[flat].min(1) + shift).min())
+        return max(0.0, min(self.d_max, escape))
+
     def evolve(
         self,
         poses: np.ndarray,

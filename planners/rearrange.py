@@ -244,12 +244,16 @@ class _Search:
             if steps is not None:
                 return steps
             self.max_depth = 1
-            for name in [n for n in self.ctx.failures.blocking(goal) if n in movable]:
+            blocking = [n for n in self.ctx.failures.blocking(goal) if n in movable]
+            for name in blocking + [n for n in movable if n not in blocking]:
                 avoid = tuple(n for n in others if n != name)
                 steps = self.rearrange(goal, Retrieve(), Volume(), (), avoid, None, 0)
                 if steps is not None:
                     return steps
-        for self.max_depth in range(1 if movable else 0, len(movable) + 1):
+        # The one-move passes above hold every plan that moves one object (each candidate that
+        # such a plan can use is among the first an action yields when the rest are avoided),
+        # so deepening starts at two.
+        for self.max_depth in range(2 if movable else 0, len(movable) + 1):
             steps = self.rearrange(goal, Retrieve(), Volume(), (), fixed, None, 0)
             if steps is not None:
                 return steps

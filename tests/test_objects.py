@@ -93,16 +93,22 @@ def test_fcl_geometry_follows_the_yaw() -> None:
     assert not _hits(box, pose, z, (0.827, 0.0, z + 0.1))
 
 
-def test_dumbbell_is_two_discs_on_a_handle() -> None:
+def test_dumbbell_lies_on_two_heads_joined_by_a_raised_handle() -> None:
+    """Off-axis primitives are placed (and turned with the yaw) where the spec puts them."""
     dumbbell, z = get_object("dumbbell"), 0.0
     pose = (0.0, 0.0, 0.0)
     assert len(_placed(dumbbell, pose, z)) == 3
-    assert _hits(dumbbell, pose, z, (0.05, 0.0, 0.02))  # bottom disc
-    assert not _hits(dumbbell, pose, z, (0.05, 0.0, 0.125))  # beside the handle
-    assert _hits(dumbbell, pose, z, (0.015, 0.0, 0.125))  # the handle
-    assert _hits(dumbbell, pose, z, (0.05, 0.0, 0.23))  # top disc
-    assert dumbbell.height == pytest.approx(0.25)
-    assert dumbbell.com_height == pytest.approx(0.125)
+    assert _hits(dumbbell, pose, z, (0.11, 0.05, 0.09))  # a head
+    assert _hits(dumbbell, pose, z, (-0.11, -0.05, 0.01))  # the other head
+    assert _hits(dumbbell, pose, z, (0.0, 0.0, 0.055))  # the handle
+    assert not _hits(dumbbell, pose, z, (0.0, 0.0, 0.02))  # under the handle
+    assert not _hits(dumbbell, pose, z, (0.0, 0.03, 0.055))  # beside it
+    turned = (0.5, 0.2, math.pi / 2)  # the handle along world y
+    assert _hits(dumbbell, turned, z, (0.5, 0.2 + 0.11, 0.05))
+    assert not _hits(dumbbell, turned, z, (0.5 + 0.11, 0.2, 0.05))
+    assert dumbbell.footprint == Footprint("box", half_extents=(0.125, 0.055))
+    assert dumbbell.height == pytest.approx(0.10)
+    assert dumbbell.com_height == pytest.approx(0.05, abs=0.001)  # mostly the heads
 
 
 def test_footprint_gap_is_the_planar_distance() -> None:
@@ -120,7 +126,7 @@ def test_library_sizes_and_masses() -> None:
     assert (can.height, can.mass) == pytest.approx((0.122, 0.35))
     assert get_object("poptart_box").footprint.half_extents == pytest.approx((0.07, 0.025))
     assert get_object("large_box").footprint.min_width == pytest.approx(0.26)
-    assert get_object("dumbbell").mass == 8.0
+    assert get_object("dumbbell").mass == 5.0
     for spec in OBJECTS.values():
         assert 0.3 <= spec.lateral_friction <= 0.7
         assert spec.spinning_friction >= 0 and spec.rolling_friction >= 0

@@ -105,42 +105,53 @@ def test_the_lift_rises_straight_up(lone_can: Plan) -> None:
     assert np.ptp(tcp[:, 0]) < 2e-3 and np.ptp(tcp[:, 1]) < 2e-3
 
 
-def test_fig3_sweeps_the_box_before_the_pickup(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
-    result, _ = fig3
+def test_fig3_pushes_the_dumbbell_away_then_the_box_into_its_space(
+    fig3: tuple[Plan, list[ObjectBelief]],
+) -> None:
+    """The paper's plan (Fig. 4): "The robot first pushes the dumbbell away to clear a portion
+    of the space, which it then uses to push the box into. Afterwards it uses the space in
+    front of the red can to grasp" it; planned backwards, one object per planning step."""
+    result, beliefs = fig3
     assert result.success, result.blocked_by
-    assert [(s.result.action, s.result.obj) for s in result.steps] == [
-        ("sweep", "big_box"),
-        ("pickup", "red_can"),
-    ]
-    # Planned backwards: the pickup is planning step 1, the sweep step 2.
-    assert [s.depth for s in result.steps] == [1, 0]
-    assert result.stats.planning_steps >= 2
+    assert [s.result.obj for s in result.steps] == ["dumbbell", "big_box", "red_can"]
+    assert result.steps[-1].result.action == "pickup"
+    assert [s.depth for s in result.steps] == [2, 1, 0]
+    box = result.steps[1]
+    by_name = {b.name: b for b in beliefs}
+    z = TABLE.top_z
+    # The box ends where the dumbbell stood.
+    box_final = Volume.of_object("big_box", by_name["big_box"].spec, box.result.nu[-1], z)
+    dumbbell = by_name["dumbbell"]
+    assert box_final.intersects(Volume.of_object("dumbbell", dumbbell.spec, dumbbell.samples, z))
 
 
 def test_fig3_plan_respects_avoid_and_ngr(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
-    """The sweep (executed first) keeps the can's U and the dumbbell clear and leaves the box
-    out of the pickup's NGR; the transits connect the steps."""
+    """Every action keeps clear of the objects moved after it (they are where they were) and
+    of those moved before it (where they were left), and leaves its object out of the NGR of
+    the actions after it; the transits connect the steps."""
     result, beliefs = fig3
     by_name = {b.name: b for b in beliefs}
-    sweep, pickup = result.steps
     robot = RobotCollision(ArmKinematics("right"), ArmGeometry())
     z = TABLE.top_z
-    sweep_volume = Volume.of_trajectory(robot, sweep.trajectory) + Volume.of_object(
-        "big_box", by_name["big_box"].spec, sweep.result.nu.reshape(-1, 3), z
-    )
-    for other in ("red_can", "dumbbell"):
-        b = by_name[other]
-        assert not sweep_volume.intersects(Volume.of_object(other, b.spec, b.samples, z))
-    box_final = Volume.of_object("big_box", by_name["big_box"].spec, sweep.result.nu[-1], z)
-    assert len(sweep.ngr) > 0 and not box_final.intersects(sweep.ngr)
-    # ...and the NGR is exactly what the pickup needs: its arm and the can's evolution.
-    can = by_name["red_can"]
-    pickup_volume = Volume.of_trajectory(robot, pickup.result.trajectory) + Volume.of_object(
-        "red_can", can.spec, pickup.result.nu.reshape(-1, 3), z
-    )
-    assert len(pickup_volume) == len(sweep.ngr)
-    assert sweep.transit is not None
-    assert np.allclose(sweep.transit.end, pickup.result.trajectory.start)
+    steps = result.steps
+    placed = {b.name: b.samples for b in beliefs}  # where each object is when a step runs
+    for k, step in enumerate(steps):
+        name = step.result.obj
+        spec = by_name[name].spec
+        volume = Volume.of_trajectory(robot, step.result.trajectory) + Volume.of_object(
+            name, spec, step.result.nu.reshape(-1, 3), z
+        )
+        for other, samples in placed.items():
+            if other != name:
+                assert not volume.intersects(
+                    Volume.of_object(other, by_name[other].spec, samples, z)
+                ), (name, other)
+        if k < len(steps) - 1:
+            final = Volume.of_object(name, spec, step.result.nu[-1], z)
+            assert len(step.ngr) > 0 and not final.intersects(step.ngr)
+            assert step.transit is not None
+            assert np.allclose(step.transit.end, steps[k + 1].result.trajectory.start)
+            placed[name] = step.result.nu[-1]
 
 
 def test_plan_trajectory_is_env_actions(fig3: tuple[Plan, list[ObjectBelief]]) -> None:
@@ -155,12 +166,13 @@ def test_plan_trajectory_is_env_actions(fig3: tuple[Plan, list[ObjectBelief]]) -
 
 
 def test_unpushable_objects_are_never_moved() -> None:
-    beliefs = [
-        belief("can", "soda_can", (1.06, -0.22, 0.0)),
-        belief("dumbbell", "dumbbell", (0.90, -0.22, 0.0)),
-    ]
+    """An object a push would tip over (``pushable=False``) stays where it is, even in the
+    way: here a box standing between the robot and the can."""
+    box = belief("box", "poptart_box", (0.68, -0.22, 0.0))
+    box = replace(box, spec=replace(box.spec, pushable=False))
+    beliefs = [belief("can", "soda_can", (0.84, -0.22, 0.0)), box]
     result = plan(beliefs, time_budget=10.0)
-    assert "dumbbell" not in result.objects_moved
+    assert "box" not in result.objects_moved
     if not result.success:
         assert result.blocked_by
 

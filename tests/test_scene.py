@@ -242,9 +242,9 @@ def test_touching_objects_are_accepted() -> None:
         scene_from_dict(d)
 
 
-def test_can_between_dumbbell_discs_collides() -> None:
+def test_can_between_dumbbell_heads_collides() -> None:
     d = _valid()
-    d["objects"][1] = {"name": "bell", "kind": "dumbbell", "pose": [0.72, -0.29, 0.0]}
+    d["objects"][1] = {"name": "bell", "kind": "dumbbell", "pose": [0.72, -0.2, 0.0]}
     with pytest.raises(ValueError, match=r"^objects\[1\].pose: 'bell'.*'can'"):
         scene_from_dict(d)
 

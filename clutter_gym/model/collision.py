@@ -59,12 +59,10 @@ def _fcl_geometry(shape: Shape) -> fcl.CollisionGeometry:
 
 def _object_transforms(spec: ObjectSpec, pose: Pose, surface_z: float) -> list[fcl.Transform]:
     """World transforms of an object's shapes at a planar pose on a surface of top ``surface_z``
-    (its shapes are upright on its vertical axis)."""
+    (its shapes are upright: no roll or pitch)."""
     rotation = rotation_z(pose[2])
-    return [
-        fcl.Transform(rotation, np.array([pose[0], pose[1], surface_z + p.xyz[2]]))
-        for p in spec.primitives
-    ]
+    origin = np.array([pose[0], pose[1], surface_z])
+    return [fcl.Transform(rotation, origin + rotation @ np.array(p.xyz)) for p in spec.primitives]
 
 
 def penetration_depth(

@@ -1,7 +1,7 @@
 """The object library: the everyday objects of Dogar & Srinivasa's experiments (§3).
 
-Every object is an upright stack of primitives (boxes and cylinders) centred on one vertical
-axis, so the simulator (pybullet), the collision checker (python-fcl), the renderer (trimesh)
+Every object is a few upright primitives (boxes and cylinders, no roll or pitch) placed in its
+frame, so the simulator (pybullet), the collision checker (python-fcl), the renderer (trimesh)
 and the planar pushing model all derive their geometry from the same few numbers.
 
 Object frame convention: an object's pose is ``(x, y, theta)``, the position of its vertical
@@ -158,11 +158,8 @@ class ObjectSpec:
         if self.mass <= 0:
             raise ValueError(f"object {self.kind!r} mass must be positive, got {self.mass}")
         for p in self.primitives:
-            if p.kind not in ("box", "cylinder") or p.rpy != (0.0, 0.0, 0.0) or p.xyz[:2] != (0, 0):
-                raise ValueError(
-                    f"object {self.kind!r}: {p} is not an upright box or cylinder on the "
-                    "object's vertical axis"
-                )
+            if p.kind not in ("box", "cylinder") or p.rpy != (0.0, 0.0, 0.0):
+                raise ValueError(f"object {self.kind!r}: {p} is not an upright box or cylinder")
             if p.xyz[2] - p.height / 2 < -1e-9:
                 raise ValueError(f"object {self.kind!r} has a primitive below its base: {p}")
         if self.graspable and self.footprint.min_width > MAX_GRASP_WIDTH:
@@ -177,11 +174,12 @@ class ObjectSpec:
 
     @property
     def footprint(self) -> Footprint:
-        """All-cylinder objects have a circular outline; otherwise the covering box."""
-        if all(p.kind == "cylinder" for p in self.primitives):
+        """Cylinders on the vertical axis have a circular outline; otherwise the box about the
+        axis that covers every primitive."""
+        if all(p.kind == "cylinder" and p.xyz[:2] == (0, 0) for p in self.primitives):
             return Footprint("circle", radius=max(p.dims[0] for p in self.primitives))
-        hx = max(p.half_xy[0] for p in self.primitives)
-        hy = max(p.half_xy[1] for p in self.primitives)
+        hx = max(abs(p.xyz[0]) + p.half_xy[0] for p in self.primitives)
+        hy = max(abs(p.xyz[1]) + p.half_xy[1] for p in self.primitives)
         return Footprint("box", half_extents=(hx, hy))
 
     @property
@@ -204,34 +202,28 @@ class ObjectSpec:
 
 
 def _dumbbell() -> ObjectSpec:
-    disc_radius, disc_thickness, handle_radius, handle_length = 0.06, 0.04, 0.017, 0.17
+    """A 5 kg hex dumbbell lying on its heads, the handle level between them: how a dumbbell
+    rests on a table (standing on one head it is 25 cm tall on a 6 cm radius, and a push at
+    the hand's height tips it over). Hexagonal heads 10 cm across the flats lie on a flat face
+    (boxes 5 cm thick); the handle is a 3 cm bar 4 cm above the table. Heavier than the WAM's
+    3 kg payload, so it is pushed, never lifted (the paper's "too heavy to be lifted")."""
+    head = (0.05, 0.11, 0.10)
+    handle = (0.15, 0.03, 0.03)
+    head_x = (handle[0] + head[0]) / 2
     return ObjectSpec(
         kind="dumbbell",
         primitives=(
-            Shape("cylinder", (disc_radius, disc_thickness), (0.0, 0.0, disc_thickness / 2)),
-            Shape(
-                "cylinder",
-                (handle_radius, handle_length),
-                (0.0, 0.0, disc_thickness + handle_length / 2),
-            ),
-            Shape(
-                "cylinder",
-                (disc_radius, disc_thickness),
-                (0.0, 0.0, disc_thickness + handle_length + disc_thickness / 2),
-            ),
+            Shape("box", head, (-head_x, 0.0, head[2] / 2)),
+            Shape("box", handle, (0.0, 0.0, 0.04 + handle[2] / 2)),
+            Shape("box", head, (head_x, 0.0, head[2] / 2)),
         ),
-        mass=8.0,
-        lateral_friction=0.6,
+        mass=5.0,
+        lateral_friction=0.5,
         spinning_friction=0.005,
         rolling_friction=0.0001,
         rgba=(0.10, 0.15, 0.45, 1.0),
-        graspable=True,  # by the handle
-        liftable=False,  # too heavy for the arm's payload
-        # Swept at the planner's push height (TCP 7.5 cm up, `PUSH_HEIGHT`) it still topples:
-        # `clutter-gym validate-capture --object dumbbell --action sweep --trials 30` ran 106
-        # sweeps (0 and 45 deg, both sides of the hand): 15 toppled and 6 tilted past 10 deg;
-        # of the 36 the sweep region predicted to carry it, 12 toppled and 4 tilted.
-        pushable=False,
+        graspable=True,  # the fingers close around a head
+        liftable=False,
     )
 
 

@@ -29,6 +29,8 @@ A scene is stored as JSON (format ``clutter-gym-scene/1``)::
   of ``NOISE_LEVELS`` or ``{"xy": sigma_xy, "theta": sigma_theta}``, the standard deviations
   of Gaussian noise on the detected poses: sigma_xy in [0, 1] m and sigma_theta in [0, pi] rad
   (``MAX_SIGMA``), beyond which perception is meaningless and observations lose precision.
+* ``description`` (optional): free text, e.g. which sentence of the paper a figure's placements
+  follow.
 
 Loading validates everything: every error is a ``ValueError`` whose message starts with the
 JSON path of the offending field (e.g. ``objects[2].pose``) and says what was found and what
@@ -143,6 +145,8 @@ class Scene:
     objects: tuple[ObjectPlacement, ...]
     goal: GoalSpec
     noise: str | tuple[float, float] = DEFAULT_NOISE
+    description: str = ""
+    """Free text, e.g. which sentence of the paper each placement of a figure follows."""
 
     def __post_init__(self) -> None:
         _validate(self)
@@ -296,7 +300,7 @@ def _range(value: object, path: str) -> tuple[float, float]:
 
 def scene_from_dict(d: Mapping[str, Any]) -> Scene:
     """Parse and validate a scene from its JSON form (see the module docstring)."""
-    top = mapping(d, "", ("format", "surface", "objects", "goal"), ("noise",))
+    top = mapping(d, "", ("format", "surface", "objects", "goal"), ("noise", "description"))
     if not isinstance(top["format"], str) or top["format"] != SCENE_FORMAT:
         raise invalid("format", top["format"], repr(SCENE_FORMAT))
     surface = _surface(top["surface"], "surface")
@@ -335,6 +339,7 @@ def scene_from_dict(d: Mapping[str, Any]) -> Scene:
         objects=tuple(objects),
         goal=GoalSpec(object=_name(goal["object"], "goal.object"), region=region, success=success),
         noise=raw_noise if isinstance(raw_noise, str) else sigma,
+        description=string(top.get("description", ""), "description"),
     )
 
 
@@ -355,6 +360,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
             if isinstance(scene.noise, str)
             else {"xy": scene.noise[0], "theta": scene.noise[1]}
         ),
+        **({"description": scene.description} if scene.description else {}),
     }
 
 

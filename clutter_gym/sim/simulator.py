@@ -135,7 +135,7 @@ class Simulator:
         """A movable object standing upright at planar pose (x, y, theta) on a surface."""
         c = self.client
         prims = spec.primitives
-        frames = [[0.0, 0.0, p.xyz[2]] for p in prims]
+        frames = [list(p.xyz) for p in prims]
         shapes = {
             "shapeTypes": [_shape_type(p.kind) for p in prims],
             "halfExtents": [_half_extents(p.kind, p.dims) for p in prims],

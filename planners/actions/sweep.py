@@ -98,38 +98,41 @@ def _sweep_at(
     plan = _plan_sweep(ctx, name, angle, handedness)
     guess = _first_guess(ctx, name, goal, plan)
     if guess is None:
+        guess = _pilot_guess(ctx, name, goal, plan)
+    if guess is None:
         yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
         return
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
     free = arm.free_check(avoid, hand)
-    placement = None
+    # Placements in order until one gives a sweep: where the object meets the hand decides how
+    # long the region holds it and which way it turns, so one placement's failure (a short
+    # hold, a corner swinging into avoidVol) says nothing about the next one's.
     for fraction in SWEEP_PLACEMENTS:
-        outcome = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
-        if isinstance(outcome, Failure):
-            yield outcome
+        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
+        if isinstance(placement, Failure):
+            yield placement
             continue
-        placement = outcome
-        break
-    if placement is None:
-        return
-    frame, in_frame, plan = placement  # the plan at the placement's height
-    with ctx.stats.timed("nu"):
-        swept = _simulate(ctx, name, goal, plan.region, frame, in_frame)
-    if swept is None:
-        yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
-        return
-    distance, nu = swept
-    start_xy = np.asarray(frame.origin)
-    end_xy = start_xy + distance * frame.x_axis
-    # At the placement's height, or higher where the straight line is out of reach there.
-    heights = [z for z in _heights(ctx, arm, plan, start_xy, end_xy) if z >= plan.z]
-    for z in heights or [plan.z]:
-        result = _sweep_motion(
-            ctx, arm, name, avoid, replace(plan, z=z), frame, hand, free, distance, nu
-        )
+        frame, in_frame, placed = placement  # the plan at the placement's height
+        with ctx.stats.timed("nu"):
+            swept = _simulate(ctx, name, goal, placed.region, frame, in_frame)
+        if swept is None:
+            why = _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe())
+            yield Failure(name, ACTION, why)
+            continue
+        distance, nu = swept
+        start_xy = np.asarray(frame.origin)
+        end_xy = start_xy + distance * frame.x_axis
+        # At the placement's height, or higher where the straight line is out of reach there.
+        heights = [z for z in _heights(ctx, arm, placed, start_xy, end_xy) if z >= placed.z]
+        for z in heights or [placed.z]:
+            result = _sweep_motion(
+                ctx, arm, name, avoid, replace(placed, z=z), frame, hand, free, distance, nu
+            )
+            if not isinstance(result, Failure):
+                break
+        yield result
         if not isinstance(result, Failure):
-            break
-    yield result
+            return
 
 
 def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) -> _Sweep:
@@ -186,6 +189,18 @@ def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) 
     return None
 
 
+def _pilot_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
+    """How far a sweep of the detected pose alone, at the most central placement, goes before
+    it is in G: the guess when no rigid translation reaches G, because the object must turn
+    on the way (a long object pushed at its end swings round against the hand, and only then
+    fits between the NGR and the table's edge). The pilot is kept for the full simulation."""
+    frame, in_frame = _frame_at(ctx, name, plan, SWEEP_PLACEMENTS[0])
+    limit = min(ctx.settings.sweep_max, plan.region.holds_until(in_frame[:1]))
+    with ctx.stats.timed("nu"):
+        pilot = _sweep_until(ctx, name, goal, plan.region, frame, in_frame[:1], limit, PILOT_STEP)
+    return None if pilot is None else pilot[0]
+
+
 def _placement(
     ctx: PlanningContext,
     arm: Arm,
@@ -208,16 +223,19 @@ def _placement(
     blocker = overlapped(ctx, sweep_profile(plan.region.aperture).pusher, frame, avoid, plan.z)
     if blocker:
         return Failure(name, ACTION, f"the hand overlaps {blocker} where the sweep starts", blocker)
-    # Reachable and clear where it starts and where the guess ends, before paying for the
-    # simulated evolution; another placement along the hand may clear what this hits.
+    # Reachable and clear where it starts and where the guess ends, and along the straight
+    # line between, before paying for the simulated evolution (the sweep's most expensive
+    # step); another placement along the hand may clear what this hits.
     end_xy = start_xy + guess * frame.x_axis
     why = "no collision-free IK solution at the start of the sweep"
     for z in _heights(ctx, arm, plan, start_xy, end_xy):
         if arm.solve(hand_pose(start_xy, plan.approach, z), free) is None:
             continue
-        if arm.solve(hand_pose(end_xy, plan.approach, z), free) is not None:
-            return frame, in_frame, replace(plan, z=z)
-        why = "no collision-free IK solution at the end of the sweep"
+        at_z = replace(plan, z=z)
+        line = _straight_sweep(arm, at_z, start_xy, end_xy, free)
+        if not isinstance(line, str):
+            return frame, in_frame, at_z
+        why = line
     return Failure(name, ACTION, why)
 
 
@@ -279,8 +297,10 @@ def _simulate(
 ) -> tuple[float, np.ndarray] | None:
     """How far to sweep and nu_o: a pilot with the detected pose alone (a thirtieth of the
     work) says whether and roughly where the sweep reaches G; only then are all samples
-    simulated, near there."""
-    limit = ctx.settings.sweep_max
+    simulated, tested for G from a chunk before there on, as far as the sweep may go (the
+    samples spread as they turn, and the last of them may need several chunks more)."""
+    # No sweep longer than the region holds every sample can pass: simulate no further.
+    limit = min(ctx.settings.sweep_max, region.holds_until(in_frame))
     pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
     if pilot is None:
         return None
@@ -291,7 +311,7 @@ def _simulate(
         region,
         frame,
         in_frame,
-        min(limit, pilot[0] + SWEEP_CHUNK),
+        limit,
         check_from=pilot[0] - SWEEP_CHUNK,
     )
 
@@ -436,6 +456,7 @@ def _sweep_until(
     if evolution is None:
         evolution = ctx.sweeps[key] = SweepEvolution([], in_frame, 0.0)
     stages = [frame.moving_to_world(np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
+    hold = region.holds_until(in_frame)
     i = 0
     while i < len(evolution.chunks) or evolution.advanced < limit - 1e-9:
         ctx.check_budget()
@@ -445,16 +466,33 @@ def _sweep_until(
         k = int(np.searchsorted(distances, limit + 1e-9)) - 1
         if k < 1:
             break
-        if distances[k] >= check_from and _reached(
-            ctx, name, goal, region, in_frame, float(distances[k]), world[k]
-        ):
-            j = next(
-                j
-                for j in range(1, k + 1)
-                if j == k
-                or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
-            )
-            return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
+        if distances[k] >= check_from:
+            held = bool(distances[k] < hold)
+            if held and _reached(ctx, name, goal, region, in_frame, float(distances[k]), world[k]):
+                j = next(
+                    j
+                    for j in range(1, k + 1)
+                    if j == k
+                    or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
+                )
+                return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
+            if not held:
+                # The region lets go of a sample by the end of this chunk and holds none
+                # longer: G can only be reached before that, at one of the chunk's stages.
+                last = next(
+                    (
+                        j
+                        for j in range(1, k)
+                        if distances[j] >= check_from
+                        and _reached(
+                            ctx, name, goal, region, in_frame, float(distances[j]), world[j]
+                        )
+                    ),
+                    None,
+                )
+                if last is None:
+                    return None
+                return float(distances[last]), np.concatenate([*stages, world[1 : last + 1]])
         if k < len(distances) - 1:
             break
         stages.append(world[1:])
