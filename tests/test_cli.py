@@ -8,6 +8,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -124,6 +125,21 @@ def test_validate_capture_every_aperture_writes_one_table(tmp_path: Path) -> Non
     rows = table.read_text().splitlines()[2:]
     assert [row.split(" | ")[2] for row in rows] == [f"{a:.3f}" for a in apertures]
     assert all(row.startswith("| soda_can | push-grasp |") for row in rows)
+
+
+def test_gif_frames_puts_evenly_spaced_frames_on_one_sheet(tmp_path: Path) -> None:
+    from clutter_gym.media import gif_writer
+
+    gif, png = tmp_path / "roll.gif", tmp_path / "sheet.png"
+    colours = [(200, 30, 30), (30, 200, 30), (30, 30, 200)]
+    rng = np.random.default_rng(0)
+    with gif_writer(gif) as frames:
+        for k in range(9):  # frames 0, 4 and 8 are kept: red, green, blue
+            frame = rng.integers(0, 255, (20, 30, 3), dtype=np.uint8)
+            frame[:, :15] = colours[k // 4] if k % 4 == 0 else (90, 90, 90)
+            frames.add(frame)
+    assert main(["gif-frames", "--gif", str(gif), "--out", str(png), "--frames", "3"]) == 0
+    assert_picture(png, size=(90, 20), colours=colours, tolerance=12)
 
 
 def test_capture_region_figure(tmp_path: Path) -> None:

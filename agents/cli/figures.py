@@ -1,10 +1,18 @@
-"""The figure commands: plots of a benchmark report, of a capture region and of training runs."""
+"""The figure commands: plots of a benchmark report, of a capture region and of training runs,
+and a GIF's frames on one sheet."""
 
 from __future__ import annotations
 
 import argparse
 
-from agents.cli.arguments import input_dir, input_file, output_dir, output_file, read_json
+from agents.cli.arguments import (
+    COUNT,
+    input_dir,
+    input_file,
+    output_dir,
+    output_file,
+    read_json,
+)
 from agents.experiments.capture_objects import ACTIONS as VALIDATED_ACTIONS
 
 
@@ -49,6 +57,24 @@ def run_capture_region(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_gif_frames(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--gif", type=input_file, required=True, help="e.g. out/demo/demo.gif")
+    parser.add_argument("--out", type=output_file, required=True, help="PNG to write")
+    parser.add_argument("--frames", type=COUNT, default=8, help="evenly spaced frames")
+    parser.add_argument("--columns", type=COUNT, default=4, help="frames per row")
+
+
+def run_gif_frames(args: argparse.Namespace) -> int:
+    from agents.figures.gif_frames import contact_sheet
+
+    try:
+        count = contact_sheet(args.gif, args.out, args.frames, args.columns)
+    except OSError as error:
+        raise ValueError(f"--gif: {args.gif} is not a readable GIF ({error})") from None
+    print(f"wrote {args.out} ({count} frames)")
+    return 0
+
+
 def add_plot_training(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", type=input_dir, nargs="+", help="training directories (or grids)")
     parser.add_argument("--out", type=output_file, required=True, help="PNG to write")
@@ -66,5 +92,6 @@ def run_plot_training(args: argparse.Namespace) -> int:
 COMMANDS = {
     "benchmark-plots": (add_benchmark_plots, run_benchmark_plots),
     "capture-region": (add_capture_region, run_capture_region),
+    "gif-frames": (add_gif_frames, run_gif_frames),
     "plot-training": (add_plot_training, run_plot_training),
 }

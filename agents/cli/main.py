@@ -16,6 +16,7 @@ clutter-gym evaluate --agent DIR|planner:pushing|planner:pg|planner:tsr|scripted
     --env ID --episodes N --seed S --json out.json [--md out.md]
     [--level none] [--goal-kind soda_can] [--noise sigma1] [--scenes a.json ...]
 clutter-gym plot-training DIR... --out fig.png
+clutter-gym gif-frames --gif out/demo/demo.gif --out frames.png [--frames 8] [--columns 4]
 
 Bad input is one line naming the flag, the value and what is allowed, exit status 2; every
 argument is checked before any work starts. A job log (the .jsonl beside --json) has one writer:
@@ -79,6 +80,7 @@ COMMANDS = (
         "agents.cli.learning",
     ),
     Command("plot-training", "success rate against env steps, over seeds", "agents.cli.figures"),
+    Command("gif-frames", "a GIF's frames side by side in one PNG", "agents.cli.figures"),
     Command("bench", "speed and memory benchmarks, written as JSON", "agents.cli.experiments"),
 )
 """The dispatch table, in the order `--help` lists the commands."""
