@@ -53,13 +53,18 @@ def test_unknown_level_lists_the_choices(capsys: pytest.CaptureFixture[str]) -> 
 
 
 @pytest.mark.slow
-def test_demo_plans_clears_the_box_and_retrieves_the_can(tmp_path: Path) -> None:
+def test_demo_plans_the_papers_three_steps_and_retrieves_the_can(tmp_path: Path) -> None:
+    """Figs. 3-5: the dumbbell moves first, then the box into its space, then the can."""
     assert main(["demo", "--out-dir", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "demo.json").read_text())
     assert summary["success"] and summary["goal_held"] and summary["goal_lift_m"] >= 0.10
     plan = summary["plan"]
-    assert plan["success"] and plan["objects_moved"] == ["big_box"]
-    assert [s["action"] for s in plan["steps"]] == ["sweep", "pickup"]
+    assert plan["success"] and plan["objects_moved"] == ["dumbbell", "big_box"]
+    assert [(s["action"], s["object"]) for s in plan["steps"]] == [
+        ("sweep", "dumbbell"),
+        ("sweep", "big_box"),
+        ("pickup", "red_can"),
+    ]
     with Image.open(tmp_path / "demo.gif") as gif:
         # PIL merges identical consecutive frames (the arm at rest), so at most as many.
         assert 50 < gif.n_frames == summary["frames"]
