@@ -71,6 +71,25 @@ def test_demo_plans_the_papers_three_steps_and_retrieves_the_can(tmp_path: Path)
     assert_picture(tmp_path / "demo.gif", size=(480, 360), colours=(TABLE_BROWN,))
 
 
+def test_bench_train_times_env_and_update_apart(tmp_path: Path) -> None:
+    config = tmp_path / "quick.yml"
+    shipped = Path(__file__).resolve().parents[1] / "agents" / "hyperparams" / "sac_lone_can.yml"
+    config.write_text(
+        f"ClutterRetrieveEE-v0:\n  base: {shipped}\n  learning_starts: 12\n"
+        "  buffer_size: 500\n  batch_size: 16\n  env_kwargs: {max_episode_steps: 10}\n"
+    )
+    out = tmp_path / "train.json"
+    argv = ["bench", "train", "--config", str(config), "--train-steps", "20", "--json", str(out)]
+    assert main(argv) == 0
+    result = json.loads(out.read_text())
+    assert result["replay_buffer"] == "HerReplayBuffer" and result["net_arch"] == [256, 256]
+    assert result["timed_steps"] == 20 and result["warmup_steps"] == 12
+    assert 0 < result["ms_per_env_step"] < result["ms_per_training_step"]
+    assert result["ms_per_update"] == pytest.approx(
+        result["ms_per_training_step"] - result["ms_per_env_step"], abs=0.02
+    )
+
+
 def test_bench_env_writes_json(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
     argv = ["bench", "env", "--steps", "30", "--trajectory-steps", "1", "--resets", "5"]

@@ -155,7 +155,7 @@ def test_shipped_hyperparameters_name_registered_ids_and_known_keys() -> None:
                 assert hp.env_kwargs["gamma"] == hp.algo_kwargs["gamma"]
 
 
-# The configs of the results as they were when each repeated its algorithm's entry in full.
+# The result configs written out in full: each override must load as its full entry.
 RESULT_COPIES = {
     "ppo_primitive_medium.yml": """
 ClutterRetrievePrimitive-v0:
@@ -187,7 +187,7 @@ ClutterRetrievePrimitive-v0:
   ent_coef: 0.01
   policy_kwargs: {net_arch: [128, 128]}
 """,
-    "tqc_lone_can.yml": """
+    "sac_lone_can.yml": """
 ClutterRetrieveEE-v0:
   policy: MultiInputPolicy
   n_timesteps: 300000

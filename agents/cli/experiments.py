@@ -270,7 +270,9 @@ def run_reachability(args: argparse.Namespace) -> int:
 
 
 def add_bench(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("target", choices=("env", "capture", "plan", "ik"), help="what to measure")
+    parser.add_argument(
+        "target", choices=("env", "capture", "plan", "ik", "train"), help="what to measure"
+    )
     parser.add_argument("--json", type=output_file, default=None, help="also write the result here")
     parser.add_argument("--steps", type=COUNT, default=2000, help="env: low-level steps to time")
     parser.add_argument(
@@ -288,6 +290,14 @@ def add_bench(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--samples", type=COUNT, default=500, help="ik: level-hand target poses to solve"
     )
+    parser.add_argument(
+        "--config", type=input_file, default=None,
+        help="train: hyperparameters (default agents/hyperparams/sac_lone_can.yml)",
+    )
+    parser.add_argument("--algo", choices=("sac", "tqc"), default="sac", help="train: algorithm")
+    parser.add_argument(
+        "--train-steps", type=COUNT, default=2000, help="train: learning steps to time"
+    )
 
 
 def run_bench(args: argparse.Namespace) -> int:
@@ -303,6 +313,10 @@ def run_bench(args: argparse.Namespace) -> int:
         from agents.experiments.speed.ik_speed import bench_ik
 
         result = bench_ik(args.samples)
+    elif args.target == "train":
+        from agents.experiments.speed.train_speed import bench_train
+
+        result = bench_train(args.algo, config=args.config, steps=args.train_steps)
     else:
         from agents.experiments.speed.env_speed import bench_env
 

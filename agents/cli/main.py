@@ -5,7 +5,7 @@ clutter-gym plan --scene scene.json [--planner pushing] [--execute --trials 100]
     [--gif out.gif] [--figure timeline.png]
 clutter-gym scene --level high --seed 3 [--surface table] [--noise sigma2] --out scene.json
 clutter-gym render --scene scene.json --out scene.png
-clutter-gym bench env|capture|plan|ik --json out.json [--samples 500]
+clutter-gym bench env|capture|plan|ik|train --json out.json [--samples 500] [--train-steps 2000]
 clutter-gym benchmark --suite table1|fig15|perturbed [--planners tsr,pg,pushing,pick-and-place]
     --json out.json [--md out.md] [--plots dir] [--trials 10] [--workers 2] [--backend local|ray]
 clutter-gym benchmark-plots --json out.json --out dir
