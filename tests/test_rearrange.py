@@ -255,6 +255,22 @@ def test_shelf_pickup_carries_the_object_upright_around_a_blocked_pull() -> None
     assert np.allclose(carried[-1, 0, :2], tcp_end[:2] + offset, atol=0.02)
 
 
+def test_a_shelf_pickup_beside_the_strip_pulls_the_object_into_it() -> None:
+    """The strip is narrower than the shelf: a can grasped beside it is pulled sideways too,
+    so every sample's centre ends inside the goal region (the env's success test)."""
+    from clutter_gym.model.world import SHELF
+
+    (x0, x1), (y0, y1) = SHELF.default_goal_region
+    can = belief("can", "soda_can", (0.66, y0 - 0.05, 0.0))
+    result = plan_retrieval(
+        SHELF, [can], "can", hm.RIGHT_ARM_START, PlannerSettings(time_budget=120.0)
+    )
+    assert result.success, result.blocked_by
+    final = result.steps[-1].result.nu[-1]
+    assert np.all((final[:, 0] > x0) & (final[:, 0] < x1)), final[:, 0]
+    assert np.all((final[:, 1] > y0) & (final[:, 1] < y1)), final[:, 1]
+
+
 def test_pushing_moves_no_more_objects_than_pick_and_place() -> None:
     """Shortest plans first: the pushing planner's actions include pick-and-place, so where
     pick-and-place retrieves the goal by moving one object, pushing moves at most one. The

@@ -37,6 +37,7 @@ CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
 FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
+STRIP_MARGIN = 0.02  # m inside the goal strip's sides the pulled object's samples must end
 
 
 @dataclass(frozen=True)
@@ -206,8 +207,14 @@ def _retrieve(
     raise_ = arm.straight(q_end, hand_pose(end_xy, heading, z + SHELF_LIFT), free)
     if raise_ is None:
         return None, nothing
-    (x0, x1), _ = ctx.goal_region
-    shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), 0.0])
+    # Into the strip's middle along x, and along y only as far as needed to bring every
+    # sample's centre STRIP_MARGIN inside the strip (an object grasped near a wall lies beside
+    # the strip; pulled straight out it would stay there).
+    (x0, x1), (y0, y1) = ctx.goal_region
+    ys = in_hand[:, 1]
+    into = max(y0 + STRIP_MARGIN - float(ys.min()), 0.0)
+    dy = into - max(float(ys.max()) - (y1 - STRIP_MARGIN), 0.0)
+    shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), dy])
     target = hand_pose(end_xy + shift, heading, z + SHELF_LIFT)
     pull = arm.straight(raise_[-1], target, free)
     if pull is None:
