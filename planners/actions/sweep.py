@@ -467,32 +467,20 @@ def _sweep_until(
         if k < 1:
             break
         if distances[k] >= check_from:
+
+            def reached(j: int, d: np.ndarray = distances, w: np.ndarray = world) -> bool:
+                return _reached(ctx, name, goal, region, in_frame, float(d[j]), w[j])
+
             held = bool(distances[k] < hold)
-            if held and _reached(ctx, name, goal, region, in_frame, float(distances[k]), world[k]):
-                j = next(
-                    j
-                    for j in range(1, k + 1)
-                    if j == k
-                    or _reached(ctx, name, goal, region, in_frame, float(distances[j]), world[j])
-                )
-                return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
-            if not held:
-                # The region lets go of a sample by the end of this chunk and holds none
-                # longer: G can only be reached before that, at one of the chunk's stages.
-                last = next(
-                    (
-                        j
-                        for j in range(1, k)
-                        if distances[j] >= check_from
-                        and _reached(
-                            ctx, name, goal, region, in_frame, float(distances[j]), world[j]
-                        )
-                    ),
-                    None,
-                )
-                if last is None:
+            if not held or reached(k):
+                # G is reached by the chunk's end, or the region lets go of a sample by then and
+                # holds none longer: the sweep is the chunk's first stage that reaches G (the
+                # last stage only while it is held, and then it is known to).
+                last = k if held else k - 1
+                j = next((j for j in range(1, last + 1) if j == k or reached(j)), None)
+                if j is None:
                     return None
-                return float(distances[last]), np.concatenate([*stages, world[1 : last + 1]])
+                return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
         if k < len(distances) - 1:
             break
         stages.append(world[1:])
