@@ -6,6 +6,8 @@ Gymnasium-Robotics do), each with its `max_episode_steps`; truncation is Gymnasi
 - `ClutterRetrieve-v0`: one step executes a whole trajectory (`clutter_gym.env.ClutterRetrieveEnv`);
 - `ClutterRetrieveEE-v0`: end-effector steps, sparse reward, goal-conditioned (GoalEnv);
 - `ClutterRetrieveEEDense-v0`: the same with the dense (potential-shaped) reward;
+- `ClutterRetrieveEEGrasp-v0`: end-effector steps whose goal is the grasp (the hand around the
+  goal object, held by two fingers), the first stage of learning the retrieval;
 - `ClutterRetrievePrimitive-v0`: one step is one of the paper's parameterised primitives
   (push-grasp, sweep, PickUp), built by the planner's action code (`agents.learning.primitive_env`).
 """
@@ -27,6 +29,11 @@ _VARIANTS: dict[str, tuple[str, dict[str, str], int]] = {
     "ClutterRetrieveEEDense-v0": (
         "clutter_gym.env:ClutterRetrieveEEEnv",
         {"reward_type": "dense"},
+        100,
+    ),
+    "ClutterRetrieveEEGrasp-v0": (
+        "clutter_gym.env:ClutterRetrieveEEEnv",
+        {"reward_type": "sparse", "objective": "grasp"},
         100,
     ),
     "ClutterRetrievePrimitive-v0": (

@@ -35,6 +35,7 @@ from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.noise import detect, resolve_noise
 from clutter_gym.model.objects import get_object
 from clutter_gym.model.observation import (
+    GOAL_SIZES,
     MAX_OBJECTS,
     Observation,
     encode_goal_observation,
@@ -57,10 +58,13 @@ from clutter_gym.sim.controllers import (
 from clutter_gym.sim.robot import Herb
 from clutter_gym.sim.simulator import TIMESTEP, Camera, Simulator
 from clutter_gym.sim.task import (
+    OBJECTIVES,
     REWARD_TYPES,
+    Objective,
     Outcome,
     RetrievalTask,
     RewardType,
+    grasped,
     lifted,
     reward,
     shaping,
@@ -176,6 +180,10 @@ class _RetrievalEnv(gym.Env[Observation, np.ndarray], ABC):
     def _decided(self) -> bool:
         """Whether the episode is decided in the middle of an action (stop executing it)."""
         return False
+
+    def _objective(self) -> Objective:
+        """What the episode asks of the robot (`sim.task.Objective`)."""
+        return "retrieve"
 
     # --- gymnasium API ----------------------------------------------------------------------
     def reset(
@@ -363,7 +371,9 @@ class _RetrievalEnv(gym.Env[Observation, np.ndarray], ABC):
         self._sim_steps = 0
         self._sigma = self.noise_override or resolve_noise(scene.noise)
         self._static_obs = encode_scene(scene, self._sigma)
-        self._task = RetrievalTask(self.sim, self.herb, scene, self._surface, specs)
+        self._task = RetrievalTask(
+            self.sim, self.herb, scene, self._surface, specs, objective=self._objective()
+        )
         self._controller = self._make_controller(arm, hand)
 
     def _substep(self) -> bool:
@@ -387,6 +397,7 @@ class _RetrievalEnv(gym.Env[Observation, np.ndarray], ABC):
             "is_success": bool(outcome.success),
             "failure": outcome.failure,
             "goal_held": bool(outcome.goal_held),
+            "goal_gripped": bool(outcome.goal_gripped),
             "goal_lift": float(outcome.goal_lift),
             "true_object_poses": padded,
             "object_names": self._task.names,
@@ -489,6 +500,11 @@ class ClutterRetrieveEEEnv(_RetrievalEnv):
     timestep = EE_TIMESTEP
     merge_fixed_links = True  # a ~40% cheaper physics step (`sim.robot`)
 
+    def __init__(self, *args: Any, objective: Objective = "retrieve", **kwargs: Any) -> None:
+        _check_choice("objective", objective, OBJECTIVES)
+        self.objective: Objective = objective
+        super().__init__(*args, **kwargs)
+
     @staticmethod
     def _surfaces() -> tuple[str, ...]:
         return ("table",)
@@ -504,22 +520,32 @@ class ClutterRetrieveEEEnv(_RetrievalEnv):
     def _start_arm_default(self, scene: Scene) -> np.ndarray:
         return ready_configuration(get_surface(scene.surface))
 
+    def _objective(self) -> Objective:
+        return self.objective
+
     def _make_controller(self, arm: np.ndarray, hand: HandCommand) -> Controller:
         controller = EndEffectorDeltaController(self.herb, self.kinematics)
         controller.reset(arm)
         return controller
 
     def _observation_space(self) -> spaces.Dict:
-        return goal_observation_space(MAX_OBJECTS)
+        return goal_observation_space(MAX_OBJECTS, GOAL_SIZES[self.objective])
 
     def _observe(self, outcome: Outcome, tcp: Pose) -> Observation:
         obs = self._state(outcome, tcp)
         obs.update(self._static_obs)
         goal = int(obs["goal_object"])
         x, y = (float(v) for v in obs["object_poses"][goal, :2])
-        if self._steps == 0:  # the episode's first detection fixes where the goal must rise
-            self._desired = np.array([x, y, self._task.goal_height])
-        achieved = np.array([x, y, outcome.goal_position[2]])
+        if self.objective == "grasp":
+            if self._steps == 0:  # the first detection fixes where the hand must grasp it
+                point = np.array([x, y, self._task.grasp_point[2]])
+                self._task.aim(point)
+                self._desired = np.r_[point, 1.0]
+            achieved = np.r_[tcp[0], float(outcome.goal_gripped)]
+        else:
+            if self._steps == 0:  # the episode's first detection fixes where the goal must rise
+                self._desired = np.array([x, y, self._task.goal_height])
+            achieved = np.array([x, y, outcome.goal_position[2]])
         return encode_goal_observation(obs, achieved, self._desired)
 
     def _reward(self, obs: Observation, outcome: Outcome, info: dict[str, Any]) -> float:
@@ -528,12 +554,18 @@ class ClutterRetrieveEEEnv(_RetrievalEnv):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: object
     ) -> np.ndarray | float:
-        """The reward of goals (B, 3) with a batch of infos (a sequence of info dicts, or one
-        dict of arrays), or of one goal (3,) with its info; a float for one goal."""
+        """The reward of goals (B, n) with a batch of infos (a sequence of info dicts, or one
+        dict of arrays), or of one goal (n,) with its info; a float for one goal. The grasp
+        objective's goals carry whether the object is held as their last entry, so that a goal
+        HER relabels from a step without a grasp pays for reaching that TCP position."""
         held, failed, shaped = _info_arrays(info)
         achieved = np.asarray(achieved_goal, dtype=np.float64)
         desired = np.asarray(desired_goal, dtype=np.float64)
-        success = held & ~failed & lifted(achieved[..., 2], desired[..., 2])
+        if self.objective == "grasp":
+            holds = achieved[..., 3] >= desired[..., 3]
+            success = grasped(achieved[..., :3], desired[..., :3], holds) & ~failed
+        else:
+            success = held & ~failed & lifted(achieved[..., 2], desired[..., 2])
         rewards = reward(success, failed, shaped, self.reward_type)
         return float(rewards) if rewards.ndim == 0 else rewards
 

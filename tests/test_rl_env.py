@@ -28,10 +28,14 @@ from clutter_gym.model.scene import (
 )
 from clutter_gym.model.world import TABLE
 from clutter_gym.sim.controllers import EE_STEP, READY_HEIGHT, YAW_STEP
-from clutter_gym.sim.task import GRASP_WEIGHT, LIFT_HEIGHT
+from clutter_gym.sim.task import GRASP_TOLERANCE, GRASP_WEIGHT, LIFT_HEIGHT
 from tests.helpers import EE_IDS, OPEN_AND_HOLD, still_action
 
-REGISTERED_STEPS = {"ClutterRetrieve-v0": 10, "ClutterRetrieveEE-v0": 100}
+REGISTERED_STEPS = {
+    "ClutterRetrieve-v0": 10,
+    "ClutterRetrieveEE-v0": 100,
+    "ClutterRetrieveEEGrasp-v0": 100,
+}
 
 
 def workspace_centre() -> tuple[float, float]:
@@ -338,6 +342,64 @@ def test_relabelled_goals_reward_holding_the_object_that_high() -> None:
     assert compute(obs["achieved_goal"], obs["desired_goal"], info) == 0.0  # not lifted yet
     assert compute(obs["achieved_goal"], held_here, {**info, "goal_held": False}) == 0.0
     assert compute(held_here, held_here, {**info, "failure": "x toppled"}) == -1.0
+    env.close()
+
+
+class ShortGrasp(ScriptedSideGrasp):
+    """The side grasp closing with the TCP ``short`` metres before the goal's axis."""
+
+    def __init__(self, env: gym.Env, obs: dict[str, np.ndarray], short: float) -> None:
+        super().__init__(env, obs, "soda_can")
+        self.goal = self.goal - short * self.direction
+
+
+def grasp_episode(
+    policy_of: Callable[[gym.Env, dict[str, np.ndarray]], ScriptedSideGrasp], steps: int = 100
+) -> tuple[list[float], dict[str, Any], dict[str, np.ndarray]]:
+    """Rewards, last info and observation of a grasp-objective episode on a lone can; every
+    reward is checked against compute_reward and the env's success."""
+    env = gym.make("ClutterRetrieveEEGrasp-v0", scenes=lone_goal(), max_episode_steps=steps)
+    compute = env.unwrapped.compute_reward  # type: ignore[attr-defined]
+    obs, info = env.reset(seed=0)
+    policy, rewards = policy_of(env, obs), []
+    while True:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        assert compute(obs["achieved_goal"], obs["desired_goal"], info) == reward
+        assert (reward == 1.0) == info["is_success"]
+        rewards.append(float(reward))
+        if terminated or truncated:
+            env.close()
+            return rewards, info, obs
+
+
+def test_grasp_objective_succeeds_when_two_fingers_grip_the_goal_around_its_axis() -> None:
+    rewards, info, obs = grasp_episode(lambda env, obs: ScriptedSideGrasp(env, obs, "soda_can"))
+    assert info["is_success"] and rewards[-1] == 1.0 and sum(rewards) == 1.0
+    assert info["goal_gripped"] and not info["goal_held"]  # the can still stands on the table
+    assert obs["achieved_goal"][3] == obs["desired_goal"][3] == 1.0
+    assert np.linalg.norm(obs["achieved_goal"][:3] - obs["desired_goal"][:3]) <= GRASP_TOLERANCE
+
+
+def test_grasp_objective_fails_when_the_hand_closes_short_of_the_goal() -> None:
+    """Closed 7 cm short of the can's axis, the fingers flick it away: no grasp, no reward."""
+    rewards, info, obs = grasp_episode(lambda env, obs: ShortGrasp(env, obs, 0.07), steps=80)
+    assert not info["is_success"] and not info["goal_gripped"] and set(rewards) == {0.0}
+    assert obs["achieved_goal"][3] == 0.0
+
+
+def test_relabelled_grasp_goals_reward_reaching_where_the_tcp_went() -> None:
+    """What HER relies on: a goal relabelled from a step without a grip pays for reaching that
+    TCP position; one with the grip flag set pays only while the object is gripped there."""
+    env = gym.make("ClutterRetrieveEEGrasp-v0", scenes=lone_goal())
+    compute = env.unwrapped.compute_reward  # type: ignore[attr-defined]
+    obs, _ = env.reset(seed=0)
+    obs, reward, _, _, info = env.step(OPEN_AND_HOLD)
+    reached = obs["achieved_goal"].copy()
+    assert reward == 0.0 and reached[3] == 0.0
+    assert compute(reached, reached, info) == 1.0
+    assert compute(reached, reached + [GRASP_TOLERANCE + 0.01, 0, 0, 0], info) == 0.0
+    assert compute(reached, np.r_[reached[:3], 1.0], info) == 0.0
+    assert compute(reached, reached, {**info, "failure": "x toppled"}) == -1.0
     env.close()
 
 

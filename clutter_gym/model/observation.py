@@ -29,6 +29,10 @@ needs), a Dict of
   height z of its base (detections are planar; the height is what lifting changes);
 - desired_goal (3,) float64: the goal's first detected x, y of the episode and the height its
   base must reach, `LIFT_HEIGHT` (0.10 m) above where it stood.
+With the grasp objective (`ClutterRetrieveEEGrasp-v0`, the first stage of learning) the goals
+are (4,): achieved_goal the TCP's position and 1.0 while two fingers grip the goal object (0.0
+otherwise); desired_goal the grasp point (the goal's first detected x, y, at the grasp height
+above its base) and 1.0.
 float64 goals, as Gymnasium-Robotics has them: the env's reward is `compute_reward` of exactly
 these numbers.
 """
@@ -50,6 +54,8 @@ from clutter_gym.model.world import SURFACES, Region, Surface
 Observation = dict[str, Any]
 """ndarrays, and np.int64 for the Discrete entries."""
 OBJECT_KINDS = tuple(OBJECTS)
+GOAL_SIZES = {"retrieve": 3, "grasp": 4}
+"""Length of the end-effector variants' goals per objective (module docstring)."""
 WORLD_REACH = 5.0
 """m: bounds every position in the world, so that the observation space is finite."""
 MAX_JOINT_SPEED = 10.0
@@ -77,10 +83,10 @@ def observation_space(max_objects: int = MAX_OBJECTS) -> spaces.Dict:
     )
 
 
-def goal_observation_space(max_objects: int = MAX_OBJECTS) -> spaces.Dict:
+def goal_observation_space(max_objects: int = MAX_OBJECTS, goal_size: int = 3) -> spaces.Dict:
     """The end-effector variants' observation space (module docstring)."""
     low, high = _flat_bounds(observation_space(max_objects), max_objects)
-    goal = spaces.Box(-WORLD_REACH, WORLD_REACH, (3,), np.float64)
+    goal = spaces.Box(-WORLD_REACH, WORLD_REACH, (goal_size,), np.float64)
     return spaces.Dict(
         {
             "observation": spaces.Box(low, high, dtype=np.float32),

@@ -3,7 +3,10 @@
 Success is physical: the goal object must be held by finger contact (at least two different
 fingers touching it, nothing but the robot touching it) and lifted at least `LIFT_HEIGHT` above
 where it started, or, for `success="region"` scenes (the shelf), its centre must lie inside the
-goal region while it stands upright. No attach constraint is ever created.
+goal region while it stands upright. No attach constraint is ever created. The grasp objective
+(`Objective`, the first stage of end-effector learning) stops before the lift: the goal object
+gripped by two fingers (it may still stand on the surface) with the hand around it, the TCP
+within `GRASP_TOLERANCE` of the grasp point it was aimed at (`RetrievalTask.aim`).
 
 Failure terminates the episode: an object topples (its axis tilts more than `TOPPLE_ANGLE`), an
 object leaves the surface, or the robot touches the table or shelf.
@@ -25,8 +28,8 @@ from three progress terms, each in [0, 1] (the weights sum to 1, so -1 <= Phi <=
   `herb.HAND_TCP_OFFSET`, so the palm is then beside the object);
 - grasp = min(fingers touching the goal, 2) / 4 + held / 2;
 - goal: lift tasks, held * min(lift / LIFT_HEIGHT, 1) (only a held object's lift counts: tilting
-  an object also raises its base); region tasks, 1 - min(distance from the goal object's
-  centre to the goal region / REGION_SCALE, 1).
+  an object also raises its base); the grasp objective, whether it is grasped; region tasks,
+  1 - min(distance from the goal object's centre to the goal region / REGION_SCALE, 1).
 
 Why: with the agent's own discount as `gamma` (the env keyword, default 0.99) the shaping leaves
 the optimal policies unchanged, and with Phi = 0 at the end of an episode this holds in
@@ -72,6 +75,12 @@ REGION_SCALE = 0.30
 """m: a shelf's goal object starts at most ~0.3 m behind the front strip."""
 RewardType = Literal["sparse", "dense"]
 REWARD_TYPES: tuple[RewardType, ...] = ("sparse", "dense")
+Objective = Literal["retrieve", "grasp"]
+OBJECTIVES: tuple[Objective, ...] = ("retrieve", "grasp")
+GRASP_TOLERANCE = 0.04
+"""m between the TCP and the grasp point for a gripped object to count as grasped: the hand is
+around it. Measured with a soda can: the hand closing with the TCP 0-3 cm short of its axis
+wraps it; 5 cm short grips it between the fingertips only; 7 cm short flicks it away."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +88,7 @@ class Outcome:
     success: bool
     failure: str  # "" when nothing failed; otherwise a short reason naming the object
     goal_held: bool
+    goal_gripped: bool  # two fingers on it, nothing but the robot and the surface touching it
     goal_lift: float  # metres above the goal object's initial height
     fingers: int  # fingers touching the goal object
     poses: np.ndarray  # true planar poses (N, 3) of the scene's objects, as judged
@@ -93,6 +103,14 @@ def lifted(height: ArrayLike, goal_height: ArrayLike) -> np.ndarray:
     """Whether a goal object's base height reaches the goal height: the one comparison behind
     the env's success and the GoalEnv's compute_reward, so both decide alike."""
     return np.asarray(height) >= np.asarray(goal_height)
+
+
+def grasped(tcp: ArrayLike, point: ArrayLike, gripped: ArrayLike) -> np.ndarray:
+    """Whether the goal object is grasped: gripped by two fingers (`RetrievalTask.grasp`),
+    with the TCP within `GRASP_TOLERANCE` of the grasp point (vectorized over leading axes):
+    the one test behind the grasp objective's success and the GoalEnv's compute_reward."""
+    near = np.linalg.norm(np.asarray(tcp) - np.asarray(point), axis=-1) <= GRASP_TOLERANCE
+    return np.asarray(gripped, dtype=bool) & near
 
 
 def shaping(before: float, after: float, done: bool, gamma: float) -> float:
@@ -125,6 +143,7 @@ class RetrievalTask:
         surface: Surface,
         specs: dict[str, ObjectSpec],
         surface_body: str = "surface",
+        objective: Objective = "retrieve",
     ) -> None:
         self.sim = sim
         self.herb = herb
@@ -139,13 +158,22 @@ class RetrievalTask:
         self.goal_height = self.goal_start_z + LIFT_HEIGHT
         """z the goal object's base must reach (lift tasks)."""
         self._grasp_offset = np.array([0.0, 0.0, PUSH_HEIGHT])
+        self.objective = objective
+        self.grasp_point = np.asarray(sim.base_pose(self.goal)[0], dtype=float) + self._grasp_offset
+        """Where the TCP must be for the grasp objective (the goal's axis at grasp height)."""
+
+    def aim(self, point: ArrayLike) -> None:
+        """Judge the grasp objective against ``point`` (3,), where the policy was told the
+        object is (the env's desired goal), instead of the true start position."""
+        self.grasp_point = np.array(point, dtype=float)
 
     def robot_strikes_surface(self) -> bool:
         return bool(self.sim.contacts(self.herb.name, self.surface_body))
 
-    def grasp(self) -> tuple[int, bool]:
-        """Fingers touching the goal, and whether it is held: two or more fingers touch it,
-        and only the robot does."""
+    def grasp(self) -> tuple[int, bool, bool]:
+        """Fingers touching the goal; whether it is gripped: two or more fingers touch it and
+        nothing but the robot and the surface does; and whether it is held: gripped, and only
+        the robot touches it."""
         goal_id, robot_id = self.sim.body(self.goal), self.herb.body_id
         touching, links = set(), set()
         for pt in self.sim.client.getContactPoints(bodyA=goal_id):
@@ -154,14 +182,17 @@ class RetrievalTask:
             if other == robot_id:
                 links.add(link)
         fingers = sum(1 for f_links in self.herb.finger_links.values() if links & set(f_links))
-        return fingers, fingers >= 2 and touching == {robot_id}
+        gripped = fingers >= 2 and touching <= {robot_id, self.sim.body(self.surface_body)}
+        return fingers, gripped, gripped and touching == {robot_id}
 
     def evaluate(self) -> Outcome:
         positions, quaternions = self.sim.base_poses(self.names)
-        fingers, held = self.grasp()
+        fingers, gripped, held = self.grasp()
         failure = self._failure(held, positions, quaternions)
         goal_z = float(positions[self._goal_index, 2])
-        if self.scene.goal.success == "lift":
+        if self.objective == "grasp":
+            success = bool(grasped(self.herb.tcp_pose()[0], self.grasp_point, gripped))
+        elif self.scene.goal.success == "lift":
             success = held and bool(lifted(goal_z, self.goal_height))
         else:
             success = self._in_region(positions[self._goal_index], quaternions[self._goal_index])
@@ -170,6 +201,7 @@ class RetrievalTask:
             success=success and not failure,
             failure=failure,
             goal_held=held,
+            goal_gripped=gripped,
             goal_lift=goal_z - self.goal_start_z,
             fingers=fingers,
             poses=np.column_stack([positions[:, :2], yaws]),
@@ -181,7 +213,9 @@ class RetrievalTask:
         d = float(np.linalg.norm(tcp - (outcome.goal_position + self._grasp_offset)))
         reach = math.exp(-d / REACH_SCALE)
         grasp = min(outcome.fingers, 2) / 4.0 + 0.5 * outcome.goal_held
-        if self.scene.goal.success == "lift":
+        if self.objective == "grasp":
+            goal = float(grasped(tcp, self.grasp_point, outcome.goal_gripped))
+        elif self.scene.goal.success == "lift":
             goal = outcome.goal_held * min(max(outcome.goal_lift / LIFT_HEIGHT, 0.0), 1.0)
         else:
             goal = 1.0 - min(self._region_distance(outcome.goal_position) / REGION_SCALE, 1.0)
