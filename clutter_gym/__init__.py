@@ -8,6 +8,9 @@ Gymnasium-Robotics do), each with its `max_episode_steps`; truncation is Gymnasi
 - `ClutterRetrieveEEDense-v0`: the same with the dense (potential-shaped) reward;
 - `ClutterRetrieveEEGrasp-v0`: end-effector steps whose goal is the grasp (the hand around the
   goal object, held by two fingers), the first stage of learning the retrieval;
+- `ClutterRetrieveEELift-v0`: `ClutterRetrieveEE-v0` with half of the episodes starting with the
+  goal object in the hand, gripped by a planned side grasp executed in physics at reset
+  (`agents.learning.lift_env`), the second stage;
 - `ClutterRetrievePrimitive-v0`: one step is one of the paper's parameterised primitives
   (push-grasp, sweep, PickUp), built by the planner's action code (`agents.learning.primitive_env`).
 """
@@ -19,7 +22,7 @@ __version__ = "0.1.0"
 # id: (entry point, keywords, max_episode_steps). Variants defined above this package (e.g. an
 # action-primitive variant in agents/) are registered here too, by their entry-point string, so
 # that `import clutter_gym` registers every id without importing the layers above it.
-_VARIANTS: dict[str, tuple[str, dict[str, str], int]] = {
+_VARIANTS: dict[str, tuple[str, dict[str, object], int]] = {
     "ClutterRetrieve-v0": ("clutter_gym.env:ClutterRetrieveEnv", {}, 10),
     "ClutterRetrieveEE-v0": (
         "clutter_gym.env:ClutterRetrieveEEEnv",
@@ -34,6 +37,11 @@ _VARIANTS: dict[str, tuple[str, dict[str, str], int]] = {
     "ClutterRetrieveEEGrasp-v0": (
         "clutter_gym.env:ClutterRetrieveEEEnv",
         {"reward_type": "sparse", "objective": "grasp"},
+        100,
+    ),
+    "ClutterRetrieveEELift-v0": (
+        "agents.learning.lift_env:ClutterRetrieveLiftEnv",
+        {"reward_type": "sparse", "grasped_start": 0.5},
         100,
     ),
     "ClutterRetrievePrimitive-v0": (

@@ -256,7 +256,14 @@ def plan_goto(
         try:
             _reseed(seed + attempt)
             path = _ompl_plan(
-                q0, q1, count.free_within_budget, lo, hi, count.stop, resolution, constraint,
+                q0,
+                q1,
+                count.free_within_budget,
+                lo,
+                hi,
+                count.stop,
+                resolution,
+                constraint,
                 count.add_jacobian,
             )
         finally:

@@ -363,7 +363,13 @@ def simulate_push(
         busy = np.flatnonzero(~free & (move > 0))
         if busy.size:
             twist[busy], touching[busy] = _contact_twist(
-                footprint, pusher, p[busy], mu[active[busy]], c[active[busy]], move[busy], margin,
+                footprint,
+                pusher,
+                p[busy],
+                mu[active[busy]],
+                c[active[busy]],
+                move[busy],
+                margin,
                 step,
             )
         rot = rotation_2d(p[:, 2])

@@ -176,7 +176,12 @@ def still_action(env: gym.Env, obs: dict[str, np.ndarray]) -> np.ndarray:
 
 
 TRAJECTORY_ID = "ClutterRetrieve-v0"
-EE_IDS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0", "ClutterRetrieveEEGrasp-v0")
+EE_IDS = (
+    "ClutterRetrieveEE-v0",
+    "ClutterRetrieveEEDense-v0",
+    "ClutterRetrieveEEGrasp-v0",
+    "ClutterRetrieveEELift-v0",
+)
 
 
 def rollout_digest(seed: int, env_id: str, steps: int) -> str:

@@ -23,10 +23,20 @@ LEAVES = {"agents.cli": (), "agents.figures": ("agents.cli",)}
 command line imports the figures (tests use both)."""
 MUST_NOT_IMPORT = {
     "agents.learning": ("agents.experiments", "agents.cli", "agents.figures"),
-    "agents.runner": ("agents.experiments", "agents.learning", "agents.policies", "agents.cli",
-                      "agents.figures"),
-    "agents.policies": ("agents.experiments", "agents.learning", "agents.runner", "agents.cli",
-                        "agents.figures"),
+    "agents.runner": (
+        "agents.experiments",
+        "agents.learning",
+        "agents.policies",
+        "agents.cli",
+        "agents.figures",
+    ),
+    "agents.policies": (
+        "agents.experiments",
+        "agents.learning",
+        "agents.runner",
+        "agents.cli",
+        "agents.figures",
+    ),
 }
 """Subpackages of agents/ and the ones each may not import."""
 

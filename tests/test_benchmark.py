@@ -73,10 +73,20 @@ def test_ray_backend_gives_the_same_results(local_report: dict[str, Any], tmp_pa
 
 
 def _fake(job: Job, reason: str = "") -> dict[str, Any]:
-    return {"key": job.key, "scene": job.case.label, "group": job.case.group,
-            "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
-            "reason": reason, "planning_time_s": 0.1, "trials": 0, "execution_successes": 0,
-            "error": ""}
+    return {
+        "key": job.key,
+        "scene": job.case.label,
+        "group": job.case.group,
+        "noise": job.case.noise,
+        "planner": job.planner,
+        "seed": job.seed,
+        "success": True,
+        "reason": reason,
+        "planning_time_s": 0.1,
+        "trials": 0,
+        "execution_successes": 0,
+        "error": "",
+    }
 
 
 def test_an_interrupted_run_resumes_from_its_log(tmp_path: Path) -> None:

@@ -221,8 +221,12 @@ def _nan_arrays(path: Path) -> None:
     np.savez(path, **arrays)
 
 
-CORRUPTIONS = {"truncated": _truncate, "flipped byte": _flip_byte, "a directory": _directory,
-               "NaN arrays": _nan_arrays}
+CORRUPTIONS = {
+    "truncated": _truncate,
+    "flipped byte": _flip_byte,
+    "a directory": _directory,
+    "NaN arrays": _nan_arrays,
+}
 
 
 @pytest.mark.parametrize("corrupt", CORRUPTIONS.values(), ids=CORRUPTIONS.keys())

@@ -37,79 +37,169 @@ def files(tmp_path: Path, lone_can_file: Path) -> dict[str, Path]:
 CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     # (id, argv with {placeholders}, texts the one line must hold)
     ("scene missing", ["demo", "--scene", "{tmp}/nope.json"], ("--scene", "no such file")),
-    ("scene is a directory", ["render", "--scene", "{dir}", "--out", "{tmp}/x.png"],
-     ("--scene", "is a directory")),
+    (
+        "scene is a directory",
+        ["render", "--scene", "{dir}", "--out", "{tmp}/x.png"],
+        ("--scene", "is a directory"),
+    ),
     ("scene empty", ["plan", "--scene", ""], ("--scene", "empty")),
-    ("out is a directory", ["render", "--scene", "{scene}", "--out", "{dir}"],
-     ("--out", "is a directory")),
+    (
+        "out is a directory",
+        ["render", "--scene", "{scene}", "--out", "{dir}"],
+        ("--out", "is a directory"),
+    ),
     ("out empty", ["render", "--scene", "{scene}", "--out", ""], ("--out", "empty")),
-    ("out under a file", ["render", "--scene", "{scene}", "--out", "{file}/x.png"],
-     ("--out", "is a file, not a directory")),
-    ("out not writable", ["render", "--scene", "{scene}", "--out", "/proc/clutter/x.png"],
-     ("--out", "cannot be written")),
-    ("json is a directory", ["plan", "--scene", "{scene}", "--json", "{dir}"],
-     ("--json", "is a directory")),
-    ("json not writable", ["plan", "--scene", "{scene}", "--json", "/proc/x.json"],
-     ("--json", "cannot be written")),
-    ("md under a file", ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json",
-                         "--md", "{file}/b.md"], ("--md", "is a file")),
-    ("figure is a directory", ["plan", "--scene", "{scene}", "--figure", "{dir}"],
-     ("--figure", "is a directory")),
+    (
+        "out under a file",
+        ["render", "--scene", "{scene}", "--out", "{file}/x.png"],
+        ("--out", "is a file, not a directory"),
+    ),
+    (
+        "out not writable",
+        ["render", "--scene", "{scene}", "--out", "/proc/clutter/x.png"],
+        ("--out", "cannot be written"),
+    ),
+    (
+        "json is a directory",
+        ["plan", "--scene", "{scene}", "--json", "{dir}"],
+        ("--json", "is a directory"),
+    ),
+    (
+        "json not writable",
+        ["plan", "--scene", "{scene}", "--json", "/proc/x.json"],
+        ("--json", "cannot be written"),
+    ),
+    (
+        "md under a file",
+        ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json", "--md", "{file}/b.md"],
+        ("--md", "is a file"),
+    ),
+    (
+        "figure is a directory",
+        ["plan", "--scene", "{scene}", "--figure", "{dir}"],
+        ("--figure", "is a directory"),
+    ),
     ("gif empty", ["plan", "--scene", "{scene}", "--gif", ""], ("--gif", "empty")),
-    ("plots is a file", ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json",
-                         "--plots", "{file}"], ("--plots", "is a file")),
+    (
+        "plots is a file",
+        ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json", "--plots", "{file}"],
+        ("--plots", "is a file"),
+    ),
     ("out-dir is a file", ["demo", "--out-dir", "{file}"], ("--out-dir", "is a file")),
-    ("noises empty", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                      "--noises", ""], ("--noises", "names nothing")),
-    ("planners empty", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                        "--planners", ","], ("--planners", "names nothing")),
-    ("unknown noise level", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                             "--noises", "sigma9"], ("noises", "sigma9", "sigma1")),
-    ("unknown suite", ["benchmark", "--suite", "table2", "--json", "{tmp}/b.json"],
-     ("--suite", "table2", "table1", "fig15")),
-    ("unknown backend", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                         "--backend", "dask"], ("--backend", "dask", "local", "ray")),
-    ("unknown planner", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                         "--planners", "tsr,rrt"], ("planner", "rrt", "pushing")),
-    ("workers 0", ["plan", "--scene", "{scene}", "--execute", "--workers", "0"],
-     ("--workers", "0", "integer >= 1")),
-    ("workers -1", ["plan", "--scene", "{scene}", "--execute", "--workers", "-1"],
-     ("--workers", "-1", "integer >= 1")),
-    ("trials negative", ["plan", "--scene", "{scene}", "--trials", "-3"],
-     ("--trials", "-3", "integer >= 0")),
-    ("benchmark trials negative", ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json",
-                                   "--trials", "-1"], ("--trials", "-1")),
+    (
+        "noises empty",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--noises", ""],
+        ("--noises", "names nothing"),
+    ),
+    (
+        "planners empty",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--planners", ","],
+        ("--planners", "names nothing"),
+    ),
+    (
+        "unknown noise level",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--noises", "sigma9"],
+        ("noises", "sigma9", "sigma1"),
+    ),
+    (
+        "unknown suite",
+        ["benchmark", "--suite", "table2", "--json", "{tmp}/b.json"],
+        ("--suite", "table2", "table1", "fig15"),
+    ),
+    (
+        "unknown backend",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--backend", "dask"],
+        ("--backend", "dask", "local", "ray"),
+    ),
+    (
+        "unknown planner",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--planners", "tsr,rrt"],
+        ("planner", "rrt", "pushing"),
+    ),
+    (
+        "workers 0",
+        ["plan", "--scene", "{scene}", "--execute", "--workers", "0"],
+        ("--workers", "0", "integer >= 1"),
+    ),
+    (
+        "workers -1",
+        ["plan", "--scene", "{scene}", "--execute", "--workers", "-1"],
+        ("--workers", "-1", "integer >= 1"),
+    ),
+    (
+        "trials negative",
+        ["plan", "--scene", "{scene}", "--trials", "-3"],
+        ("--trials", "-3", "integer >= 0"),
+    ),
+    (
+        "benchmark trials negative",
+        ["benchmark", "--suite", "fig15", "--json", "{tmp}/b.json", "--trials", "-1"],
+        ("--trials", "-1"),
+    ),
     ("budget zero", ["plan", "--scene", "{scene}", "--budget", "0"], ("--budget", "0", "> 0")),
     ("budget nan", ["plan", "--scene", "{scene}", "--budget", "nan"], ("--budget", "nan")),
     ("seed negative", ["plan", "--scene", "{scene}", "--seed", "-1"], ("--seed", "-1")),
     ("samples zero", ["plan", "--scene", "{scene}", "--samples", "0"], ("--samples", "0")),
     ("plan noise", ["plan", "--scene", "{scene}", "--noise", "sigma9"], ("--noise", "sigma9")),
-    ("scene noise", ["scene", "--level", "none", "--seed", "0", "--noise", "loud",
-                     "--out", "{tmp}/s.json"], ("--noise", "loud")),
+    (
+        "scene noise",
+        ["scene", "--level", "none", "--seed", "0", "--noise", "loud", "--out", "{tmp}/s.json"],
+        ("--noise", "loud"),
+    ),
     ("bench steps 0", ["bench", "env", "--steps", "0"], ("--steps", "0")),
     ("bench resets 0", ["bench", "env", "--resets", "0"], ("--resets", "0")),
-    ("bench trajectory steps 0", ["bench", "env", "--trajectory-steps", "0"],
-     ("--trajectory-steps",)),
+    (
+        "bench trajectory steps 0",
+        ["bench", "env", "--trajectory-steps", "0"],
+        ("--trajectory-steps",),
+    ),
     ("bench seeds 0", ["bench", "plan", "--seeds", "0"], ("--seeds", "0")),
     ("bench objects empty", ["bench", "capture", "--objects", ""], ("--objects",)),
-    ("scenes per group 0", ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json",
-                            "--scenes-per-group", "0"], ("--scenes-per-group",)),
-    ("rotations abc", ["validate-capture", "--object", "can", "--json", "{tmp}/v.json",
-                       "--rotations", "abc"], ("--rotations", "abc")),
-    ("rotations inf", ["validate-capture", "--object", "can", "--json", "{tmp}/v.json",
-                       "--rotations", "0,inf"], ("--rotations",)),
-    ("validation trials 0", ["validate-capture", "--object", "can", "--json", "{tmp}/v.json",
-                             "--trials", "0"], ("--trials",)),
-    ("plots of invalid JSON", ["benchmark-plots", "--json", "{bad}", "--out", "{tmp}/p"],
-     ("--json", "bad.json", "not valid JSON")),
-    ("plots of a non-report", ["benchmark-plots", "--json", "{other}", "--out", "{tmp}/p"],
-     ("--json", "other.json", "not a clutter-gym benchmark report")),
-    ("figure of invalid JSON", ["capture-region", "--object", "can", "--out", "{tmp}/c.png",
-                                "--validation", "{bad}"], ("--validation", "bad.json", "JSON")),
-    ("figure of a non-report", ["capture-region", "--object", "can", "--out", "{tmp}/c.png",
-                                "--validation", "{other}"], ("--validation", "other.json")),
-    ("unknown object", ["capture-region", "--object", "piano", "--out", "{tmp}/c.png"],
-     ("--object", "piano", "can")),
+    (
+        "scenes per group 0",
+        ["benchmark", "--suite", "table1", "--json", "{tmp}/b.json", "--scenes-per-group", "0"],
+        ("--scenes-per-group",),
+    ),
+    (
+        "rotations abc",
+        ["validate-capture", "--object", "can", "--json", "{tmp}/v.json", "--rotations", "abc"],
+        ("--rotations", "abc"),
+    ),
+    (
+        "rotations inf",
+        ["validate-capture", "--object", "can", "--json", "{tmp}/v.json", "--rotations", "0,inf"],
+        ("--rotations",),
+    ),
+    (
+        "validation trials 0",
+        ["validate-capture", "--object", "can", "--json", "{tmp}/v.json", "--trials", "0"],
+        ("--trials",),
+    ),
+    (
+        "plots of invalid JSON",
+        ["benchmark-plots", "--json", "{bad}", "--out", "{tmp}/p"],
+        ("--json", "bad.json", "not valid JSON"),
+    ),
+    (
+        "plots of a non-report",
+        ["benchmark-plots", "--json", "{other}", "--out", "{tmp}/p"],
+        ("--json", "other.json", "not a clutter-gym benchmark report"),
+    ),
+    (
+        "figure of invalid JSON",
+        ["capture-region", "--object", "can", "--out", "{tmp}/c.png", "--validation", "{bad}"],
+        ("--validation", "bad.json", "JSON"),
+    ),
+    (
+        "figure of a non-report",
+        ["capture-region", "--object", "can", "--out", "{tmp}/c.png", "--validation", "{other}"],
+        ("--validation", "other.json"),
+    ),
+    (
+        "unknown object",
+        ["capture-region", "--object", "piano", "--out", "{tmp}/c.png"],
+        ("--object", "piano", "can"),
+    ),
 ]
 
 
@@ -154,8 +244,18 @@ def _clutter_gym(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
 
 def test_bench_env_stdout_is_pure_json(tmp_path: Path) -> None:
     pytest.importorskip("panda_gym")  # its pybullet client printed argv[0]=... on stdout
-    done = _clutter_gym("bench", "env", "--steps", "20", "--trajectory-steps", "1",
-                        "--resets", "2", "--primitive-steps", "2")
+    done = _clutter_gym(
+        "bench",
+        "env",
+        "--steps",
+        "20",
+        "--trajectory-steps",
+        "1",
+        "--resets",
+        "2",
+        "--primitive-steps",
+        "2",
+    )
     assert done.returncode == 0, done.stderr
     (line,) = done.stdout.splitlines()
     assert json.loads(line)["panda_push_v3_steps_per_s"] > 0
@@ -166,7 +266,11 @@ def test_an_unwritable_cache_directory_is_a_warning_not_a_crash(
 ) -> None:
     png = tmp_path / "scene.png"
     done = _clutter_gym(
-        "render", "--scene", str(files["scene"]), "--out", str(png),
+        "render",
+        "--scene",
+        str(files["scene"]),
+        "--out",
+        str(png),
         XDG_CACHE_HOME=str(files["file"] / "cache"),
     )
     assert done.returncode == 0, done.stderr

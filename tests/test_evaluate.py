@@ -172,10 +172,20 @@ def test_a_crashed_episode_is_a_failure_the_summary_counts() -> None:
     from agents.learning.evaluate import summarize
 
     agent = parse_agent("planner:pg")
-    ran = {"agent": "planner:pg", "env": "ClutterRetrieve-v0", "success": True, "length": 1,
-           "n_objects_moved": 0, "wall_time_s": 2.0}
-    crashed = {"agent": "planner:pg", "env": "ClutterRetrieve-v0", "success": False,
-               "crashed": "RuntimeError: boom"}
+    ran = {
+        "agent": "planner:pg",
+        "env": "ClutterRetrieve-v0",
+        "success": True,
+        "length": 1,
+        "n_objects_moved": 0,
+        "wall_time_s": 2.0,
+    }
+    crashed = {
+        "agent": "planner:pg",
+        "env": "ClutterRetrieve-v0",
+        "success": False,
+        "crashed": "RuntimeError: boom",
+    }
     cell = summarize([agent], [ran, crashed])["planner:pg"]
     assert cell["episodes"] == 2 and cell["successes"] == 1 and cell["success_rate"] == 0.5
     assert cell["crashed"] == 1 and cell["mean_length"] == 1.0

@@ -186,7 +186,14 @@ def test_constrained_goto_keeps_a_grasped_object_upright() -> None:
     assert result.success, result.reason
     # The projection's Jacobians count against the evaluation budget, not only the checks.
     cut = plan_goto(
-        start, goal, free, kinematics.lower, kinematics.upper, 60.0, seed=1, constraint=upright,
+        start,
+        goal,
+        free,
+        kinematics.lower,
+        kinematics.upper,
+        60.0,
+        seed=1,
+        constraint=upright,
         max_evaluations=2 * result.collision_checks,
     )
     assert cut.reason == f"no path found within {2 * result.collision_checks} evaluations"
@@ -201,7 +208,12 @@ def test_constrained_goto_rejects_endpoints_off_the_manifold() -> None:
     kinematics = ArmKinematics("right")
     tilted = np.array(hm.RIGHT_ARM_HOME)
     result = plan_goto(
-        tilted, tilted + 0.1, lambda q: True, kinematics.lower, kinematics.upper, 1.0,
+        tilted,
+        tilted + 0.1,
+        lambda q: True,
+        kinematics.lower,
+        kinematics.upper,
+        1.0,
         constraint=upright_hand(kinematics),
     )
     assert not result.success and "violates the constraint" in result.reason

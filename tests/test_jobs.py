@@ -59,10 +59,20 @@ def _count_calls(job: Job) -> dict[str, Any]:
     calls = Path(os.environ["CLUTTER_GYM_TEST_CALLS"])
     with calls.open("a") as handle:
         handle.write(job.key + "\n")
-    return {"key": job.key, "scene": job.case.label, "group": job.case.group,
-            "noise": job.case.noise, "planner": job.planner, "seed": job.seed, "success": True,
-            "reason": "", "planning_time_s": 0.1, "trials": 0, "execution_successes": 0,
-            "error": ""}
+    return {
+        "key": job.key,
+        "scene": job.case.label,
+        "group": job.case.group,
+        "noise": job.case.noise,
+        "planner": job.planner,
+        "seed": job.seed,
+        "success": True,
+        "reason": "",
+        "planning_time_s": 0.1,
+        "trials": 0,
+        "execution_successes": 0,
+        "error": "",
+    }
 
 
 def test_benchmark_keeps_every_record_after_a_cut_line(
@@ -90,8 +100,12 @@ def test_code_digest_covers_the_packages() -> None:
 def _start(script: str, tmp_path: Path) -> subprocess.Popen[str]:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.Popen(
-        [sys.executable, "-c", script], cwd=tmp_path, env=env, text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        [sys.executable, "-c", script],
+        cwd=tmp_path,
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
     )
 
 
@@ -172,8 +186,23 @@ def test_the_command_line_refuses_a_log_in_use_in_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "b.json"
-    argv = ["benchmark", "--suite", "table1", "--planners", "tsr", "--json", str(out),
-            "--scenes-per-group", "1", "--noises", "sigma2", "--trials", "0", "--workers", "1"]
+    argv = [
+        "benchmark",
+        "--suite",
+        "table1",
+        "--planners",
+        "tsr",
+        "--json",
+        str(out),
+        "--scenes-per-group",
+        "1",
+        "--noises",
+        "sigma2",
+        "--trials",
+        "0",
+        "--workers",
+        "1",
+    ]
     with log_lock(out.with_name("b.json.jobs.jsonl")):
         assert main(argv) == 2
     _, err = capsys.readouterr()

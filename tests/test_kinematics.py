@@ -144,8 +144,10 @@ def test_ik_solutions_recover_random_poses(side: str, samples: int) -> None:
         near_hits += distance < 0.2
         if distance >= 0.2:
             far.append(f"j2 {q[1]:+.2f} j6 {q[5]:+.3f}: {distance:.2f} rad")
-    print(f"{side}: pose {pose_hits}/{samples}, q {q_hits}/{samples}, grid within 0.2 rad "
-          f"{near_hits}/{samples}; far: {far}")
+    print(
+        f"{side}: pose {pose_hits}/{samples}, q {q_hits}/{samples}, grid within 0.2 rad "
+        f"{near_hits}/{samples}; far: {far}"
+    )
     assert pose_hits >= 0.99 * samples and q_hits >= 0.99 * samples
     assert near_hits >= 0.98 * samples
 

@@ -97,7 +97,8 @@ def test_modules_of_an_extra_are_imported_lazily(path: Path) -> None:
     extra_modules = {m.removesuffix(".py").replace("/", ".") for m in EXTRA_MODULES}
     tree = ast.parse(path.read_text())
     for_types = [
-        s for node in ast.walk(tree)
+        s
+        for node in ast.walk(tree)
         if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING"
         for s in ast.walk(node)
     ]

@@ -30,9 +30,7 @@ def test_a_map_is_shipped_for_the_current_robot_and_world(surface: str) -> None:
     built = shipped_map(surface)
     assert built is not None, f"run: clutter-gym reachability --surface {surface}"
     grid = default_grid(SURFACES[surface])
-    assert built.reach.shape == (
-        len(grid.heights), len(grid.headings), len(grid.xs), len(grid.ys)
-    )
+    assert built.reach.shape == (len(grid.heights), len(grid.headings), len(grid.xs), len(grid.ys))
     assert 0.1 < built.reach.mean() < 0.9
 
 

@@ -35,6 +35,7 @@ REGISTERED_STEPS = {
     "ClutterRetrieve-v0": 10,
     "ClutterRetrieveEE-v0": 100,
     "ClutterRetrieveEEGrasp-v0": 100,
+    "ClutterRetrieveEELift-v0": 100,
 }
 
 

@@ -74,8 +74,11 @@ BAD_FLAGS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
 ]
 
 BAD_ENTRIES: list[tuple[str, dict[str, Any], tuple[str, ...]]] = [
-    ("unknown key", {**TINY_PPO, "learning_rat": 0.1},
-     ("unknown key 'learning_rat'", "learning_rate")),
+    (
+        "unknown key",
+        {**TINY_PPO, "learning_rat": 0.1},
+        ("unknown key 'learning_rat'", "learning_rate"),
+    ),
     ("unknown zoo-style key", {**TINY_PPO, "frame_stack": 4}, ("'frame_stack'", "n_timesteps")),
     ("normalize key", {**TINY_PPO, "normalize": {"norm_obz": True}}, ("norm_obz", "norm_obs")),
     ("schedule", {**TINY_PPO, "learning_rate": "exp_0.1"}, ("learning_rate", "lin_<number > 0>")),
@@ -232,7 +235,9 @@ def test_an_override_merges_mappings_and_replaces_other_values(tmp_path: Path) -
     assert hp.env_kwargs == {**shipped.env_kwargs, "level": "none"}
     assert hp.algo_kwargs == {**shipped.algo_kwargs, "n_steps": 32}
     assert (hp.policy, hp.normalize, hp.n_timesteps) == (
-        shipped.policy, shipped.normalize, shipped.n_timesteps
+        shipped.policy,
+        shipped.normalize,
+        shipped.n_timesteps,
     )
 
 
@@ -344,8 +349,11 @@ def _clutter_gym(argv: list[str]) -> subprocess.Popen[str]:
     """The command in its own process group, as a terminal runs it (Ctrl-C reaches the group)."""
     script = Path(sys.executable).with_name("clutter-gym")
     return subprocess.Popen(
-        [str(script), *argv], text=True, start_new_session=True,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        [str(script), *argv],
+        text=True,
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
     )
 
 

@@ -43,8 +43,13 @@ def test_sample_count_must_be_positive(n: int) -> None:
 
 @settings(max_examples=100, deadline=None)
 @given(
-    st.floats(-1, 1), st.floats(-1, 1), st.floats(-3, 3), st.sampled_from([1, -1]),
-    st.floats(-2, 2), st.floats(-2, 2), st.floats(-3, 3),
+    st.floats(-1, 1),
+    st.floats(-1, 1),
+    st.floats(-3, 3),
+    st.sampled_from([1, -1]),
+    st.floats(-2, 2),
+    st.floats(-2, 2),
+    st.floats(-3, 3),
 )
 def test_frames_round_trip(
     ox: float, oy: float, angle: float, hand: int, x: float, y: float, theta: float

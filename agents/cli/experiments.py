@@ -114,9 +114,20 @@ def run_plan(args: argparse.Namespace) -> int:
         noise=args.noise,
     )
     keys = (
-        "planner", "noise", "samples", "success", "reason", "planning_time_s", "actions",
-        "objects_moved", "trials", "execution_successes", "execution_success_rate",
-        "execution_failures", "mean_execution_simulated_s", "resumed_trials",
+        "planner",
+        "noise",
+        "samples",
+        "success",
+        "reason",
+        "planning_time_s",
+        "actions",
+        "objects_moved",
+        "trials",
+        "execution_successes",
+        "execution_success_rate",
+        "execution_failures",
+        "mean_execution_simulated_s",
+        "resumed_trials",
     )
     print(json.dumps({k: report[k] for k in keys if k in report}))
     if not report["success"]:
@@ -264,8 +275,16 @@ def run_reachability(args: argparse.Namespace) -> int:
         built, path = build_map(name, args.workers, args.log_dir)
         figure = args.figure_dir / f"reachability_{name}.png"
         plot_map(built, SURFACES[name], figure)
-        print(json.dumps({"surface": name, "map": str(path), "figure": str(figure),
-                          "reachable_fraction": round(float(built.reach.mean()), 4)}))
+        print(
+            json.dumps(
+                {
+                    "surface": name,
+                    "map": str(path),
+                    "figure": str(figure),
+                    "reachable_fraction": round(float(built.reach.mean()), 4),
+                }
+            )
+        )
     return 0
 
 
@@ -280,7 +299,9 @@ def add_bench(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--resets", type=COUNT, default=1000, help="env: resets to time")
     parser.add_argument(
-        "--primitive-steps", type=COUNT, default=100,
+        "--primitive-steps",
+        type=COUNT,
+        default=100,
         help="env: ClutterRetrievePrimitive-v0 steps to time (random actions)",
     )
     parser.add_argument(
@@ -291,7 +312,9 @@ def add_bench(parser: argparse.ArgumentParser) -> None:
         "--samples", type=COUNT, default=500, help="ik: level-hand target poses to solve"
     )
     parser.add_argument(
-        "--config", type=input_file, default=None,
+        "--config",
+        type=input_file,
+        default=None,
         help="train: hyperparameters (default agents/hyperparams/sac_lone_can.yml)",
     )
     parser.add_argument("--algo", choices=("sac", "tqc"), default="sac", help="train: algorithm")

@@ -26,12 +26,16 @@ from clutter_gym import ENV_IDS
 
 def add_train(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--algo", type=names_from(ALGOS, "an algorithm"), required=True,
+        "--algo",
+        type=names_from(ALGOS, "an algorithm"),
+        required=True,
         help="ppo, sac or tqc; comma-separated for a grid",
     )
     parser.add_argument("--env", choices=ENV_IDS, required=True, help="the variant's id")
     parser.add_argument(
-        "--config", type=input_file, default=None,
+        "--config",
+        type=input_file,
+        default=None,
         help="hyperparameters YAML keyed by env id (None: agents/hyperparams/<algo>.yml)",
     )
     parser.add_argument("--steps", type=COUNT, default=None, help="env steps (None: n_timesteps)")
@@ -83,7 +87,10 @@ def add_evaluate(parser: argparse.ArgumentParser) -> None:
     from clutter_gym.model.world import SURFACES
 
     parser.add_argument(
-        "--agent", type=agent, action="append", required=True,
+        "--agent",
+        type=agent,
+        action="append",
+        required=True,
         help="a training directory, planner:NAME (pushing, pg, tsr, pick-and-place) or scripted",
     )
     parser.add_argument("--env", choices=ENV_IDS, required=True, help="the evaluated variant")

@@ -67,13 +67,22 @@ class Job:
         return f"{self.case.label}/{self.case.noise}/{self.planner}/seed{self.seed}"
 
     def identity(self) -> dict[str, Any]:
-        return {"key": self.key, "scene": self.case.label, "group": self.case.group,
-                "noise": self.case.noise, "planner": self.planner, "seed": self.seed}
+        return {
+            "key": self.key,
+            "scene": self.case.label,
+            "group": self.case.group,
+            "noise": self.case.noise,
+            "planner": self.planner,
+            "seed": self.seed,
+        }
 
     def crashed(self, error: str) -> dict[str, Any]:
         """The record of a job that raised or killed its worker: a failed plan with the error."""
         crashed = BenchmarkRecord(
-            **self.identity(), success=False, reason=f"crashed: {error}", planning_time_s=None,
+            **self.identity(),
+            success=False,
+            reason=f"crashed: {error}",
+            planning_time_s=None,
             error=error,
         )
         return crashed.as_dict()
@@ -297,17 +306,33 @@ def _table1_markdown(report: dict[str, Any]) -> str:
 
 
 def _figures_markdown(report: dict[str, Any]) -> str:
-    header = ("scene", "noise", "planner", "plan", "actions", "objects moved",
-              "planning time [s]", "execution [simulated s]", "execution success")
+    header = (
+        "scene",
+        "noise",
+        "planner",
+        "plan",
+        "actions",
+        "objects moved",
+        "planning time [s]",
+        "execution [simulated s]",
+        "execution success",
+    )
     rows = []
     for r in (BenchmarkRecord.from_dict(d) for d in report["records"]):
         plan, execution = r.plan, r.execution
-        rows.append((
-            r.scene, r.noise, r.planner, "yes" if r.success else "no: " + _short(r),
-            plan.actions if plan else None, ", ".join(plan.objects_moved if plan else []) or "-",
-            r.planning_time_s, execution.mean_execution_simulated_s if execution else None,
-            f"{r.execution_successes}/{r.trials}" if r.trials else "-",
-        ))
+        rows.append(
+            (
+                r.scene,
+                r.noise,
+                r.planner,
+                "yes" if r.success else "no: " + _short(r),
+                plan.actions if plan else None,
+                ", ".join(plan.objects_moved if plan else []) or "-",
+                r.planning_time_s,
+                execution.mean_execution_simulated_s if execution else None,
+                f"{r.execution_successes}/{r.trials}" if r.trials else "-",
+            )
+        )
     lines = [f"# {report['description']}", "", *markdown_table(header, rows)]
     return "\n".join(lines) + "\n"
 

@@ -59,7 +59,11 @@ def build_map(name: str, workers: int, log_dir: Path) -> tuple[ReachabilityMap, 
     digest = map_digest(surface, grid)
     jobs = [RowJob(name, h, i) for h in range(len(grid.heights)) for i in range(len(grid.xs))]
     run = run_jobs(
-        jobs, _row, log_dir / f"{name}.jobs.jsonl", config_digest(digest), workers=workers,
+        jobs,
+        _row,
+        log_dir / f"{name}.jobs.jsonl",
+        config_digest(digest),
+        workers=workers,
         desc=f"reachability {name}",
     )
     failed = [j.key for j, r in zip(jobs, run.records, strict=True) if "error" in r]

@@ -657,8 +657,14 @@ def validate(
         "distance_m": DISTANCE,
         "grid_points": len(poses),
         "setups": [
-            {"rotation_deg": s.rotation_deg, "handedness": s.handedness, "origin": s.frame.origin,
-             "angle": s.frame.angle, "start_arm": s.start_arm, "anchor": s.anchor}
+            {
+                "rotation_deg": s.rotation_deg,
+                "handedness": s.handedness,
+                "origin": s.frame.origin,
+                "angle": s.frame.angle,
+                "start_arm": s.start_arm,
+                "anchor": s.anchor,
+            }
             for s in setups
         ],
     }
@@ -690,8 +696,17 @@ def summary_lines(report: dict[str, Any], rotations: Sequence[float]) -> list[di
 
 
 MARKDOWN_HEADER = (
-    "object", "action", "aperture [m]", "rotation [deg]", "run", "skipped", "held",
-    "predicted inside", "failures inside", "failures at the edge", "tightness",
+    "object",
+    "action",
+    "aperture [m]",
+    "rotation [deg]",
+    "run",
+    "skipped",
+    "held",
+    "predicted inside",
+    "failures inside",
+    "failures at the edge",
+    "tightness",
 )
 
 
@@ -705,10 +720,17 @@ def write_markdown(
         tightness = line["tightness"]
         rows.append(
             (
-                line["object"], line["action"], f"{line['aperture_m']:.3f}",
-                f"{line['rotation_deg']:g}", line["trials"], line["skipped"],
-                line["physical_successes"], line["predicted_inside"], line["failures_inside"],
-                line["failures_at_edge"], None if tightness is None else f"{tightness:.2f}",
+                line["object"],
+                line["action"],
+                f"{line['aperture_m']:.3f}",
+                f"{line['rotation_deg']:g}",
+                line["trials"],
+                line["skipped"],
+                line["physical_successes"],
+                line["predicted_inside"],
+                line["failures_inside"],
+                line["failures_at_edge"],
+                None if tightness is None else f"{tightness:.2f}",
             )
         )
     path.parent.mkdir(parents=True, exist_ok=True)

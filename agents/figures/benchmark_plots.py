@@ -68,7 +68,8 @@ def _success_vs_noise(report: dict[str, Any], path: Path) -> Path:
             planned = [c["solved"] / c["scenes"] if c else float("nan") for c in cells]
             ax.plot(x, planned, "o-", color=colour, label=f"{planner}: planned")
             executed = [
-                c["execution_success_rate"] if c and c["execution_success_rate"] is not None
+                c["execution_success_rate"]
+                if c and c["execution_success_rate"] is not None
                 else float("nan")
                 for c in cells
             ]

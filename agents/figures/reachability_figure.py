@@ -36,8 +36,13 @@ def plot_map(reach: ReachabilityMap, surface: Surface, out: Path) -> None:
         x0, x1, y0, y1 = surface.bounds
         ax.plot([y0, y1, y1, y0, y0], [x0, x0, x1, x1, x0], "w-", lw=1.2, label="support")
         (wx0, wx1), (wy0, wy1) = surface.workspace
-        ax.plot([wy0, wy1, wy1, wy0, wy0], [wx0, wx0, wx1, wx1, wx0], "r--", lw=1.2,
-                label="scene workspace")
+        ax.plot(
+            [wy0, wy1, wy1, wy0, wy0],
+            [wx0, wx0, wx1, wx1, wx0],
+            "r--",
+            lw=1.2,
+            label="scene workspace",
+        )
         ax.invert_xaxis()  # the robot's left on the left
         ax.set_xlabel("y [m] (robot's left)")
         ax.set_ylabel("object x [m] (away from the robot)")

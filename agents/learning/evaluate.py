@@ -77,8 +77,12 @@ class EvalJob:
         return f"{self.agent.label}#{self.episode}"
 
     def identity(self) -> Record:
-        return {"agent": self.agent.label, "episode": self.episode, "seed": self.seed,
-                "env": self.env_id}
+        return {
+            "agent": self.agent.label,
+            "episode": self.episode,
+            "seed": self.seed,
+            "env": self.env_id,
+        }
 
     def crashed(self, error: str) -> Record:
         return {**self.identity(), "success": False, "crashed": error}
@@ -194,7 +198,6 @@ def _scene_digest(env: gym.Env) -> str | None:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-
 # --------------------------------------------------------------------------------------------
 # The report
 # --------------------------------------------------------------------------------------------
@@ -275,11 +278,27 @@ def _mean(values: list[float]) -> float | None:
 
 def report_markdown(report: dict[str, Any]) -> str:
     """The report's table: one row per agent."""
-    header = ("agent", "acts in", "episodes", "success rate", "mean length [steps]",
-              "mean objects moved", "mean wall time [s]", "crashed")
+    header = (
+        "agent",
+        "acts in",
+        "episodes",
+        "success rate",
+        "mean length [steps]",
+        "mean objects moved",
+        "mean wall time [s]",
+        "crashed",
+    )
     rows = [
-        (label, cell["acts_in"], cell["episodes"], cell["success_rate"], cell["mean_length"],
-         cell["mean_objects_moved"], cell["mean_wall_time_s"], cell["crashed"])
+        (
+            label,
+            cell["acts_in"],
+            cell["episodes"],
+            cell["success_rate"],
+            cell["mean_length"],
+            cell["mean_objects_moved"],
+            cell["mean_wall_time_s"],
+            cell["crashed"],
+        )
         for label, cell in report["summary"].items()
     ]
     lines = [

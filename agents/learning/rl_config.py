@@ -36,7 +36,13 @@ SET_BY_TRAIN = frozenset(
 NOT_IN_YAML = frozenset(("action_noise", "rollout_buffer_class", "rollout_buffer_kwargs"))
 """Keywords that take Python objects a YAML file cannot name."""
 NORMALIZE_KEYS = (
-    "norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs_keys",
+    "norm_obs",
+    "norm_reward",
+    "clip_obs",
+    "clip_reward",
+    "gamma",
+    "epsilon",
+    "norm_obs_keys",
 )
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU"}
 REPLAY_BUFFERS = ("ReplayBuffer", "HerReplayBuffer")

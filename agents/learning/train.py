@@ -355,7 +355,10 @@ def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
         model.learn(
             total_timesteps=job.steps - start,
             callback=[
-                callbacks.Progress(bar), evaluation, saving, callbacks.StopOnInterrupt(interrupt)
+                callbacks.Progress(bar),
+                evaluation,
+                saving,
+                callbacks.StopOnInterrupt(interrupt),
             ],
             reset_num_timesteps=start == 0,
             tb_log_name=job.algo.upper(),

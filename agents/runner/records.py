@@ -108,9 +108,15 @@ class BenchmarkRecord:
 
     def as_dict(self) -> Json:
         out: Json = {
-            "key": self.key, "scene": self.scene, "group": self.group, "noise": self.noise,
-            "planner": self.planner, "seed": self.seed, "success": self.success,
-            "reason": self.reason, "planning_time_s": self.planning_time_s,
+            "key": self.key,
+            "scene": self.scene,
+            "group": self.group,
+            "noise": self.noise,
+            "planner": self.planner,
+            "seed": self.seed,
+            "success": self.success,
+            "reason": self.reason,
+            "planning_time_s": self.planning_time_s,
         }
         if self.plan is not None:
             out.update(asdict(self.plan))
