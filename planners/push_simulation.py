@@ -335,6 +335,11 @@ def simulate_push(
     for 1 mm steps. Samples that can never be touched again (behind or beside the pusher) stop.
     ``watch(PushState) -> bool mask`` may stop samples early (a capture decided). ``record``:
     increasing push distances at which to store every sample's pose.
+
+    Without a watcher, a sample that moved rigidly with the pusher for a step is done: the
+    pusher moves uniformly along its x and the support is the same everywhere, so in the
+    pusher's frame the motion has no clock, and a pose that does not change under a step is a
+    fixed point for the rest of the push (every later checkpoint records it).
     """
     poses = np.array(poses, float).reshape(-1, 3)
     big_n = len(poses)
@@ -389,6 +394,13 @@ def simulate_push(
         done = (s >= distance - 1e-12) | (gone & (next_cp[active] >= len(checkpoints)))
         if watch is not None:
             done |= np.asarray(watch(PushState(active, s, p, touching, stationary)), bool)
+        else:
+            fixed = np.flatnonzero(stationary & ~done)
+            for k in fixed:
+                recorded[next_cp[active[k]] :, active[k]] = p[k]
+            next_cp[active[fixed]] = len(checkpoints)
+            pushed[active[fixed]] = distance
+            done[fixed] = True
         active = active[~done]
     return PushResult(poses, pushed, recorded)
 

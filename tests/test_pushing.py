@@ -181,6 +181,32 @@ def test_box_on_flat_pusher_translates() -> None:
 
 
 @pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])
+def test_a_sample_riding_with_the_pusher_is_a_fixed_point(kind: str) -> None:
+    """Without a watcher a sample that moved rigidly with the hand for one step ends there
+    (the push has no clock in the hand's frame): the recorded evolution agrees with stepping
+    every sample to the end (a watcher that stops nothing turns the shortcut off)."""
+    footprint = OBJECTS[kind].footprint
+    pusher = push_grasp_profile(0.192).pusher
+    rng = np.random.default_rng(3)
+    poses = np.column_stack(
+        [rng.uniform(0.25, 0.35, 40), rng.uniform(-0.08, 0.08, 40), rng.uniform(-np.pi, np.pi, 40)]
+    )
+    checkpoints = np.linspace(0.0, 0.3, 16)[1:]
+
+    def none(state: PushState) -> np.ndarray:
+        return np.zeros(len(state.ids), dtype=bool)
+
+    fast = simulate_push(footprint, pusher, poses, 0.5, 0.04, 0.3, 5e-3, record=checkpoints)
+    stepped = simulate_push(
+        footprint, pusher, poses, 0.5, 0.04, 0.3, 5e-3, watch=none, record=checkpoints
+    )
+    np.testing.assert_allclose(fast.recorded[..., :2], stepped.recorded[..., :2], atol=1e-4)
+    turn = np.remainder(fast.recorded[..., 2] - stepped.recorded[..., 2] + np.pi, 2 * np.pi)
+    np.testing.assert_allclose(turn - np.pi, 0.0, atol=1e-3)
+    assert np.all(fast.pushed == 0.3)
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])
 def test_the_swept_hand_is_the_union_of_its_poses_along_the_push(kind: str) -> None:
     """One overlap test against `swept` says what tests of the hand at every pose along the
     push say: an overlap exactly where a densely spaced pose overlaps, and the same distance
