@@ -456,3 +456,23 @@ def test_ready_pose_holds_the_hand_horizontal_at_grasp_height_and_still() -> Non
         *_, info = env.step(OPEN_AND_HOLD)
     assert np.allclose(base.herb.tcp_pose()[0], position, atol=0.002)  # no sag
     env.close()
+
+
+def test_driving_the_wrist_to_its_limit_slows_the_hand_instead_of_throwing_it() -> None:
+    """Forward while turning toward straight ahead in front of the shoulder, where a level
+    hand runs the wrist's j6 into its limit: the arm's redundancy holds the joints off their
+    limits, so the TCP never moves much more than the 1 cm commanded (with the joint clipped at
+    its limit, the least-squares step threw it 6.8 cm in one step here)."""
+    env = gym.make("ClutterRetrieveEE-v0", level="none", goal_kind="soda_can", noise="sigma1")
+    env.reset(seed=1)
+    base = env.unwrapped
+    assert isinstance(base, ClutterRetrieveEEEnv)
+    before, moves = base.herb.tcp_pose()[0], []
+    for _ in range(40):
+        _, _, terminated, _, _ = env.step(np.array([0.9, 0.3, 0.0, -0.5, -1.0], np.float32))
+        after = base.herb.tcp_pose()[0]
+        moves.append(float(np.linalg.norm(after - before)))
+        before = after
+        assert not terminated
+    assert max(moves) < 0.025
+    env.close()

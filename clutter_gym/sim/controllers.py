@@ -59,6 +59,10 @@ EE_LEAD = 0.02
 """m the TCP target may run ahead of the measured TCP along each axis."""
 EE_DAMPING = 0.05
 """Damping of the least-squares IK step (m, rad): negligible unless the arm is singular."""
+EE_LIMIT_MARGIN = 0.3
+"""rad from a joint limit where the IK step's null-space motion starts pushing the joint back."""
+EE_LIMIT_GAIN = 0.5
+"""Fraction of a joint's way into `EE_LIMIT_MARGIN` undone per step, in the null space."""
 READY_HEIGHT = HEIGHTS[-1]
 """m: the ready TCP's height above the surface, the highest side-grasp height."""
 READY_STANDOFF = 0.08
@@ -226,8 +230,17 @@ class EndEffectorDeltaController:
             [self._target[:3, 3] - pose[:3, 3], rotation_log(self._target[:3, :3] @ pose[:3, :3].T)]
         )
         damped = jacobian @ jacobian.T + EE_DAMPING**2 * np.eye(6)
-        dq = jacobian.T @ np.linalg.solve(damped, error)
-        return np.clip(q + dq, self.kinematics.lower, self.kinematics.upper)
+        inverse = jacobian.T @ np.linalg.inv(damped)  # (7, 6) damped pseudo-inverse
+        lower, upper = self.kinematics.lower, self.kinematics.upper
+        # The arm's seventh degree of freedom moves joints away from their limits, unseen at
+        # the TCP: a joint clipped at a limit would leave the TCP error to the other joints,
+        # and the arm lurches (a level hand turned toward straight ahead drives the wrist's
+        # j6 to its limit).
+        inward = np.maximum(lower + EE_LIMIT_MARGIN - q, 0.0) - np.maximum(
+            q - (upper - EE_LIMIT_MARGIN), 0.0
+        )
+        dq = inverse @ error + (np.eye(7) - inverse @ jacobian) @ (EE_LIMIT_GAIN * inward)
+        return np.clip(q + dq, lower, upper)
 
 
 @functools.cache
