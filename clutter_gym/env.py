@@ -70,6 +70,8 @@ from clutter_gym.sim.task import (
     shaping,
 )
 
+GRASP_GOAL = np.array([0.0, 0.0, 0.0, 1.0])
+"""The grasp objective's desired goal: the TCP at the grasp point, two fingers gripping."""
 SETTLE_TIME = 0.1  # s of physics after building a scene, so objects rest on the surface
 RESET_OPTIONS = ("scene", "level", "arm", "hand")
 """reset(options=...), a dict: scene (Scene, dict or JSON path), level (sample a scene at this
@@ -536,12 +538,10 @@ class ClutterRetrieveEEEnv(_RetrievalEnv):
         obs.update(self._static_obs)
         goal = int(obs["goal_object"])
         x, y = (float(v) for v in obs["object_poses"][goal, :2])
-        if self.objective == "grasp":
-            if self._steps == 0:  # the first detection fixes where the hand must grasp it
-                point = np.array([x, y, self._task.grasp_point[2]])
-                self._task.aim(point)
-                self._desired = np.r_[point, 1.0]
-            achieved = np.r_[tcp[0], float(outcome.goal_gripped)]
+        if self.objective == "grasp":  # the hand where this detection puts the grasp point
+            offset = self._task.grasp_offset(np.array([x, y, outcome.goal_position[2]]))
+            achieved = np.r_[offset, float(outcome.goal_gripped)]
+            self._desired = GRASP_GOAL.copy()
         else:
             if self._steps == 0:  # the episode's first detection fixes where the goal must rise
                 self._desired = np.array([x, y, self._task.goal_height])
@@ -556,8 +556,9 @@ class ClutterRetrieveEEEnv(_RetrievalEnv):
     ) -> np.ndarray | float:
         """The reward of goals (B, n) with a batch of infos (a sequence of info dicts, or one
         dict of arrays), or of one goal (n,) with its info; a float for one goal. The grasp
-        objective's goals carry whether the object is held as their last entry, so that a goal
-        HER relabels from a step without a grasp pays for reaching that TCP position."""
+        objective's goals are the TCP's offset from the goal's grasp point and whether two
+        fingers grip it: a goal HER relabels from a step without a grip pays for bringing the
+        hand to that offset again."""
         held, failed, shaped = _info_arrays(info)
         achieved = np.asarray(achieved_goal, dtype=np.float64)
         desired = np.asarray(desired_goal, dtype=np.float64)

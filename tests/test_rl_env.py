@@ -79,8 +79,11 @@ class ScriptedSideGrasp:
 
     def __init__(self, env: gym.Env, obs: dict[str, np.ndarray], kind: str) -> None:
         self.herb = env.unwrapped.herb  # type: ignore[attr-defined]
-        self.goal = np.asarray(obs["desired_goal"][:2], dtype=float)
         start = self.herb.tcp_pose()[0]
+        if len(obs["desired_goal"]) == 4:  # the grasp objective: the TCP's offset from it
+            self.goal = (start - obs["achieved_goal"][:3])[:2]
+        else:
+            self.goal = np.asarray(obs["desired_goal"][:2], dtype=float)
         self.direction = (self.goal - start[:2]) / np.linalg.norm(self.goal - start[:2])
         self.z = TABLE.top_z + PUSH_HEIGHT
         self.phase, self.count, self.hold = 0, 0, np.zeros(3)

@@ -11,6 +11,7 @@ from agents.cli.arguments import (
     COUNT,
     SEED,
     agent,
+    input_dir,
     input_file,
     integers,
     names_from,
@@ -57,6 +58,12 @@ def add_train(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--save-freq", type=COUNT, default=None, help="steps between checkpoints (None: eval-freq)"
     )
+    parser.add_argument(
+        "--demos",
+        type=input_dir,
+        default=None,
+        help="a `clutter-gym demos` directory: its successful episodes pre-fill the replay buffer",
+    )
 
 
 def run_train(args: argparse.Namespace) -> int:
@@ -74,6 +81,7 @@ def run_train(args: argparse.Namespace) -> int:
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         save_freq=args.save_freq,
+        demos=args.demos,
     )
     jobs = prepare_grid(request)  # every check before any training
     records = run_grid(jobs, args.out, backend=args.backend, workers=args.workers)
@@ -141,4 +149,50 @@ def run_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"train": (add_train, run_train), "evaluate": (add_evaluate, run_evaluate)}
+DEMO_ENVS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0", "ClutterRetrieveEEGrasp-v0")
+
+
+def add_demos(parser: argparse.ArgumentParser) -> None:
+    from clutter_gym.model.scene import GOAL_KINDS, LEVELS
+    from planners.kinds import PLANNERS
+
+    parser.add_argument("--planner", choices=tuple(PLANNERS), default="pushing", help="teacher")
+    parser.add_argument("--env", choices=DEMO_ENVS, required=True, help="an end-effector variant")
+    parser.add_argument("--episodes", type=COUNT, required=True, help="episodes recorded")
+    parser.add_argument("--seed", type=SEED, default=0, help="episode k resets with seed + k")
+    parser.add_argument("--out", type=output_dir, required=True, help="demos.npz, demos.json")
+    parser.add_argument("--level", choices=LEVELS, default="none", help="clutter of the scenes")
+    parser.add_argument("--goal-kind", choices=GOAL_KINDS, default="soda_can", help="goal's kind")
+    parser.add_argument("--noise", type=noise, default="sigma1", help="detection noise")
+    parser.add_argument("--budget", type=positive_number, default=20.0, help="planning [s]")
+
+
+def run_demos(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from agents.learning.demos import Demo, record_demos, save_demos
+
+    env_kwargs = {"level": args.level, "goal_kind": args.goal_kind, "noise": args.noise}
+    with tqdm(total=args.episodes, desc=f"demos ({args.planner})", unit="episode") as bar:
+
+        def done(demo: Demo) -> None:
+            bar.update()
+            bar.set_postfix(success=demo.success)
+
+        demos = record_demos(
+            args.env, env_kwargs, args.planner, args.episodes, args.seed, args.budget, done
+        )
+    meta = {"env": args.env, "env_kwargs": env_kwargs, "planner": args.planner, "seed": args.seed}
+    save_demos(args.out, demos, meta)
+    successes = sum(d.success for d in demos)
+    print(
+        json.dumps({**meta, "episodes": len(demos), "successes": successes, "out": str(args.out)})
+    )
+    return 0
+
+
+COMMANDS = {
+    "train": (add_train, run_train),
+    "evaluate": (add_evaluate, run_evaluate),
+    "demos": (add_demos, run_demos),
+}

@@ -15,6 +15,8 @@ clutter-gym train --algo ppo|sac|tqc[,...] --env ID [--config agents/hyperparams
 clutter-gym evaluate --agent DIR|planner:pushing|planner:pg|planner:tsr|scripted [--agent ...]
     --env ID --episodes N --seed S --json out.json [--md out.md]
     [--level none] [--goal-kind soda_can] [--noise sigma1] [--scenes a.json ...]
+clutter-gym demos --planner pushing --env ClutterRetrieveEE-v0 --episodes N --out DIR
+    [--level none] [--goal-kind soda_can] [--noise sigma1] [--seed S]
 clutter-gym plot-training DIR... --out fig.png
 clutter-gym gif-frames --gif out/demo/demo.gif --out frames.png [--frames 8] [--columns 4]
 
@@ -77,6 +79,11 @@ COMMANDS = (
     Command(
         "evaluate",
         "trained agents, planners and the scripted grasp on the same episodes",
+        "agents.cli.learning",
+    ),
+    Command(
+        "demos",
+        "the planner's plans as end-effector actions (demonstrations for learning)",
         "agents.cli.learning",
     ),
     Command("plot-training", "success rate against env steps, over seeds", "agents.cli.figures"),

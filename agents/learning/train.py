@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
+import numpy as np
 from gymnasium import spaces
 from tqdm import tqdm
 
@@ -89,6 +90,7 @@ class TrainJob:
     save_freq: int
     out: str
     hyperparams: Hyperparams
+    demos: str | None = None  # a `clutter-gym demos` directory pre-filling the replay buffer
 
     @property
     def key(self) -> str:
@@ -113,6 +115,7 @@ class TrainJob:
             "eval_episodes": self.eval_episodes,
             "save_freq": self.save_freq,
             "hyperparams": entry,
+            "demos": self.demos,
         }
 
 
@@ -134,6 +137,7 @@ class GridRequest:
     eval_freq: int | None
     eval_episodes: int
     save_freq: int | None
+    demos: Path | None = None
 
 
 def prepare_grid(request: GridRequest) -> list[TrainJob]:
@@ -146,6 +150,7 @@ def prepare_grid(request: GridRequest) -> list[TrainJob]:
     jobs = plan_runs(request, hyperparams)
     for job in jobs:
         check_run_dir(job)
+        check_demos(job)
     built = set()
     for job in jobs:
         if job.algo not in built and not _finished(Path(job.out)):
@@ -177,6 +182,7 @@ def plan_runs(request: GridRequest, hyperparams: dict[str, Hyperparams]) -> list
                     save_freq=request.save_freq or eval_freq,
                     out=str(out.resolve()),
                     hyperparams=hp,
+                    demos=None if request.demos is None else str(request.demos.resolve()),
                 )
             )
     return jobs
@@ -202,6 +208,27 @@ def check_run_dir(job: TrainJob) -> None:
         raise ValueError(
             f"--out {directory}: holds a run with other settings (differs in "
             f"{', '.join(differ) or 'format'}); give another --out or delete it"
+        )
+
+
+def check_demos(job: TrainJob) -> None:
+    """Demonstrations need an off-policy algorithm (a replay buffer), observations as the env
+    gives them (no VecNormalize) and a readable directory recorded in the same scenes."""
+    if job.demos is None:
+        return
+    if "buffer_size" not in allowed_keys(job.algo):
+        raise ValueError(f"--demos: {job.algo} has no replay buffer to pre-fill; use sac or tqc")
+    if job.hyperparams.normalize:
+        raise ValueError("--demos: the entry normalises observations; demos need them raw")
+    from agents.learning.demos import load_demos
+
+    _, meta = load_demos(Path(job.demos))
+    recorded = meta.get("env_kwargs", {})
+    scenes = {k: v for k, v in job.hyperparams.env_kwargs.items() if k in recorded}
+    if scenes != {k: recorded[k] for k in scenes} or set(recorded) - set(scenes):
+        raise ValueError(
+            f"--demos {job.demos}: recorded with {recorded}; the run's env_kwargs are "
+            f"{job.hyperparams.env_kwargs}"
         )
 
 
@@ -408,9 +435,49 @@ def _fresh(job: TrainJob, venv: Any) -> Any:
     )
     for stale in (files.EVAL_CSV, files.BEST_JSON, files.BEST_MODEL, files.BEST_VECNORMALIZE):
         (directory / stale).unlink(missing_ok=True)
+    if job.demos is not None:
+        added = _prefill(job, model)
+        print(f"{directory}: {added} demonstration steps in the replay buffer", file=sys.stderr)
     _write_run(job, "running", 0)
     print(f"{directory}: training {job.key} on {job.env_id}", file=sys.stderr)
     return model
+
+
+def _prefill(job: TrainJob, model: Any) -> int:
+    """Replay the successful demos in the run's env (reset with their seeds, from the ordinary
+    start) and add every step to the model's replay buffer, as SB3's own rollouts add them
+    (batch of one env; for HER, each demo is one whole episode). Returns the steps added."""
+    from agents.learning.demos import load_demos, replay
+    from agents.learning.lift_env import ClutterRetrieveLiftEnv
+
+    demos, _ = load_demos(Path(job.demos or ""))
+    env = gym.make(job.env_id, **job.hyperparams.env_kwargs)
+    options = {"grasped": False} if isinstance(env.unwrapped, ClutterRetrieveLiftEnv) else None
+    buffer, added = model.replay_buffer, 0
+
+    def batch(obs: Any) -> Any:
+        if isinstance(obs, dict):
+            return {key: np.asarray(value)[None] for key, value in obs.items()}
+        return np.asarray(obs)[None]
+
+    try:
+        for demo in (d for d in demos if d.success):
+            _, steps = replay(env, demo, options)
+            for obs, action, reward, next_obs, terminated, truncated, info in steps:
+                ended = terminated or truncated
+                info = {**info, "TimeLimit.truncated": truncated and not terminated}
+                buffer.add(
+                    batch(obs),
+                    batch(next_obs),
+                    model.policy.scale_action(np.asarray(action))[None],
+                    np.array([reward], dtype=np.float32),
+                    np.array([ended]),
+                    [info],
+                )
+                added += 1
+    finally:
+        env.close()
+    return added
 
 
 def _resumed(job: TrainJob, venv: Any, checkpoint: dict[str, Any]) -> Any:

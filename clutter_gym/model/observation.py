@@ -30,9 +30,9 @@ needs), a Dict of
 - desired_goal (3,) float64: the goal's first detected x, y of the episode and the height its
   base must reach, `LIFT_HEIGHT` (0.10 m) above where it stood.
 With the grasp objective (`ClutterRetrieveEEGrasp-v0`, the first stage of learning) the goals
-are (4,): achieved_goal the TCP's position and 1.0 while two fingers grip the goal object (0.0
-otherwise); desired_goal the grasp point (the goal's first detected x, y, at the grasp height
-above its base) and 1.0.
+are (4,): achieved_goal the TCP's offset from the goal's grasp point (its detected x, y at grasp
+height above its base) and 1.0 while two fingers grip the goal object (0.0 otherwise);
+desired_goal (0, 0, 0, 1).
 float64 goals, as Gymnasium-Robotics has them: the env's reward is `compute_reward` of exactly
 these numbers.
 """

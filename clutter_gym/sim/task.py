@@ -6,7 +6,8 @@ where it started, or, for `success="region"` scenes (the shelf), its centre must
 goal region while it stands upright. No attach constraint is ever created. The grasp objective
 (`Objective`, the first stage of end-effector learning) stops before the lift: the goal object
 gripped by two fingers (it may still stand on the surface) with the hand around it, the TCP
-within `GRASP_TOLERANCE` of the grasp point it was aimed at (`RetrievalTask.aim`).
+within `GRASP_TOLERANCE` of its grasp point (its axis at grasp height, where it stands now: a
+push-grasp moves it before the fingers close).
 
 Failure terminates the episode: an object topples (its axis tilts more than `TOPPLE_ANGLE`), an
 object leaves the surface, or the robot touches the table or shelf.
@@ -105,11 +106,12 @@ def lifted(height: ArrayLike, goal_height: ArrayLike) -> np.ndarray:
     return np.asarray(height) >= np.asarray(goal_height)
 
 
-def grasped(tcp: ArrayLike, point: ArrayLike, gripped: ArrayLike) -> np.ndarray:
+def grasped(offset: ArrayLike, target: ArrayLike, gripped: ArrayLike) -> np.ndarray:
     """Whether the goal object is grasped: gripped by two fingers (`RetrievalTask.grasp`),
-    with the TCP within `GRASP_TOLERANCE` of the grasp point (vectorized over leading axes):
-    the one test behind the grasp objective's success and the GoalEnv's compute_reward."""
-    near = np.linalg.norm(np.asarray(tcp) - np.asarray(point), axis=-1) <= GRASP_TOLERANCE
+    with the TCP's offset from the grasp point within `GRASP_TOLERANCE` of ``target`` (zero
+    for the episode's own goal; vectorized over leading axes): the one test behind the grasp
+    objective's success and the GoalEnv's compute_reward."""
+    near = np.linalg.norm(np.asarray(offset) - np.asarray(target), axis=-1) <= GRASP_TOLERANCE
     return np.asarray(gripped, dtype=bool) & near
 
 
@@ -159,13 +161,12 @@ class RetrievalTask:
         """z the goal object's base must reach (lift tasks)."""
         self._grasp_offset = np.array([0.0, 0.0, PUSH_HEIGHT])
         self.objective = objective
-        self.grasp_point = np.asarray(sim.base_pose(self.goal)[0], dtype=float) + self._grasp_offset
-        """Where the TCP must be for the grasp objective (the goal's axis at grasp height)."""
 
-    def aim(self, point: ArrayLike) -> None:
-        """Judge the grasp objective against ``point`` (3,), where the policy was told the
-        object is (the env's desired goal), instead of the true start position."""
-        self.grasp_point = np.array(point, dtype=float)
+    def grasp_offset(self, goal_position: ArrayLike) -> np.ndarray:
+        """The TCP's offset (3,) from the grasp point of the goal object standing with its base
+        at ``goal_position``: its axis at grasp height (the TCP is where a held object's axis
+        sits, `herb.HAND_TCP_OFFSET`)."""
+        return self.herb.tcp_pose()[0] - (np.asarray(goal_position) + self._grasp_offset)
 
     def robot_strikes_surface(self) -> bool:
         return bool(self.sim.contacts(self.herb.name, self.surface_body))
@@ -191,7 +192,8 @@ class RetrievalTask:
         failure = self._failure(held, positions, quaternions)
         goal_z = float(positions[self._goal_index, 2])
         if self.objective == "grasp":
-            success = bool(grasped(self.herb.tcp_pose()[0], self.grasp_point, gripped))
+            offset = self.grasp_offset(positions[self._goal_index])
+            success = bool(grasped(offset, np.zeros(3), gripped))
         elif self.scene.goal.success == "lift":
             success = held and bool(lifted(goal_z, self.goal_height))
         else:
@@ -214,7 +216,7 @@ class RetrievalTask:
         reach = math.exp(-d / REACH_SCALE)
         grasp = min(outcome.fingers, 2) / 4.0 + 0.5 * outcome.goal_held
         if self.objective == "grasp":
-            goal = float(grasped(tcp, self.grasp_point, outcome.goal_gripped))
+            goal = float(outcome.success)
         elif self.scene.goal.success == "lift":
             goal = outcome.goal_held * min(max(outcome.goal_lift / LIFT_HEIGHT, 0.0), 1.0)
         else:

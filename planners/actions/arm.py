@@ -66,6 +66,12 @@ class Arm:
         self._solutions: dict[bytes, np.ndarray] = {}
         self._ik = ik
 
+    @property
+    def heading_origin(self) -> np.ndarray:
+        """Where push, grasp and sweep directions are measured from (`PlannerSettings`)."""
+        origin = self.settings.heading_origin
+        return self.kinematics.shoulder if origin is None else np.asarray(origin, dtype=float)
+
     # -- collision ------------------------------------------------------------------------------
     def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> Free:
         """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and

@@ -57,7 +57,7 @@ def push_grasp(
         budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
     apertures = aperture_order(spec.footprint)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
-    for heading in push_headings(ctx, arm.kinematics.shoulder, name, reach, avoid):
+    for heading in push_headings(ctx, arm.heading_origin, name, reach, avoid):
         if budget <= 0:
             return
         for aperture in apertures:

@@ -30,6 +30,10 @@ class PlannerSettings:
     sweep_max_heading_deg: float = 180.0
     candidates_per_action: int = 3
     seed: int = 0
+    # The point (x, y) the directions above are measured from: None for the right shoulder.
+    # The end-effector demos (`agents.learning.demos`) give the ready pose's TCP: from there
+    # a level hand can only turn a little on its way to the object.
+    heading_origin: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in ("goto_evaluations", "heading_step_deg", "sweep_max", "sweep_step_deg"):

@@ -41,7 +41,7 @@ def static_grasp(
         yield Failure(name, action, why)
         return
     centre = belief.samples[0, :2]
-    base = base_heading(arm.kinematics.shoulder, centre)
+    base = base_heading(arm.heading_origin, centre)
     limit = math.radians(ctx.settings.max_heading_deg)
 
     def still() -> np.ndarray:
@@ -114,7 +114,7 @@ def _grasping_draws(
     if not len(draws):
         return draws
     reach = profile.pusher.bounds[3]
-    ranked = np.array(push_headings(ctx, arm.kinematics.shoulder, name, reach, avoid))
+    ranked = np.array(push_headings(ctx, arm.heading_origin, name, reach, avoid))
     rank = np.abs(np.remainder(draws[:, :1] - ranked + np.pi, 2 * np.pi) - np.pi).argmin(1)
     return draws[np.lexsort((np.abs(draws[:, 1]), rank))]
 

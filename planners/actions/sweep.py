@@ -55,7 +55,7 @@ def sweep(
         yield Failure(name, ACTION, "tips over when pushed")
         return
     found = 0
-    for angle, handedness in sweep_directions(ctx, arm.kinematics.shoulder, name):
+    for angle, handedness in sweep_directions(ctx, arm.heading_origin, name):
         ctx.check_budget()
         ctx.stats.actions_tried += 1
         for outcome in _sweep_at(ctx, arm, name, goal, avoid, angle, handedness):
