@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
 import subprocess
@@ -606,3 +607,63 @@ def test_plot_training_bad_input_is_one_line(
     for text in texts:
         assert text in err
     assert not (tmp_path / "f.png").exists()
+
+
+# --- demonstrations ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def lone_can_demos(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]:
+    """Two demos of the pushing planner in the training variant; the steps a run replays
+    of them (its time limit cuts them at 20)."""
+    from agents.learning.demos import record_demos, save_demos
+
+    kwargs = {"level": "none", "goal_kind": "soda_can"}
+    demos = record_demos(TRAIN_ENV, kwargs, "pushing", 2, 0, 20.0)
+    directory = tmp_path_factory.mktemp("demos")
+    save_demos(directory, demos, {"env": TRAIN_ENV, "env_kwargs": kwargs})
+    return directory, sum(min(len(d.actions), 20) for d in demos if d.success)
+
+
+def test_demos_pre_fill_the_replay_buffer_of_an_off_policy_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], lone_can_demos: tuple[Path, int]
+) -> None:
+    directory, replayed = lone_can_demos
+    assert replayed > 0
+    config = write_config(tmp_path / "sac.yml", TINY_SAC)
+    out = tmp_path / "run"
+    argv = train_argv(
+        config, out, algo="sac", steps="64", eval_freq="64", eval_episodes="1", demos=str(directory)
+    )
+    code, _, err = run(argv, capsys)
+    assert code == 0, err
+    assert f"{replayed} demonstration steps in the replay buffer" in err
+    latest = json.loads((out / "checkpoints" / "latest.json").read_text())
+    with (out / "checkpoints" / latest["replay_buffer"]).open("rb") as handle:
+        assert pickle.load(handle).size() == replayed + 64
+    settings = json.loads((out / "run.json").read_text())["settings"]
+    assert settings["demos"] == str(directory.resolve())
+
+
+@pytest.mark.parametrize(
+    ("entry", "algo", "message"),
+    [
+        (TINY_PPO, "ppo", r"--demos: ppo has no replay buffer to pre-fill"),
+        (
+            {**TINY_SAC, "env_kwargs": {**TRAIN_SCENES, "level": "medium"}},
+            "sac",
+            r"--demos .*: recorded with \{'level': 'none'",
+        ),
+    ],
+)
+def test_demos_the_run_cannot_use_are_one_line(
+    entry: dict[str, Any],
+    algo: str,
+    message: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    lone_can_demos: tuple[Path, int],
+) -> None:
+    config = write_config(tmp_path / "c.yml", entry)
+    argv = train_argv(config, tmp_path / "run", algo=algo, demos=str(lone_can_demos[0]))
+    code, _, err = run(argv, capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err), err
