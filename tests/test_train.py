@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
@@ -667,3 +668,24 @@ def test_demos_the_run_cannot_use_are_one_line(
     code, _, err = run(argv, capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert re.search(message, err), err
+
+
+def test_behaviour_cloning_fits_the_actor_to_the_demos(lone_can_demos: tuple[Path, int]) -> None:
+    from stable_baselines3 import SAC
+
+    from agents.learning.demos import load_demos, replay
+    from agents.learning.train import _behaviour_clone
+
+    env = gym.make(TRAIN_ENV, level="none", goal_kind="soda_can")
+    demos, _ = load_demos(lone_can_demos[0])
+    pairs = [(obs, action) for obs, action, *_ in replay(env, demos[0])[1]]
+    model = SAC("MultiInputPolicy", env, policy_kwargs={"net_arch": [64, 64]}, seed=0)
+
+    def error() -> float:
+        acted = np.array([model.predict(obs, deterministic=True)[0] for obs, _ in pairs])
+        return float(np.sqrt(np.mean((acted - np.array([a for _, a in pairs])) ** 2)))
+
+    before = error()
+    reported = _behaviour_clone(model, pairs, seed=0)
+    assert error() < before / 2 and reported < before / 2
+    env.close()

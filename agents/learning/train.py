@@ -72,6 +72,9 @@ EVAL_SEED = 1_000_000
 RUN_FORMAT = "clutter-gym-train/1"
 JOBS_LOG = "train_jobs.jsonl"
 DRY_BUFFER = 1000
+BC_STEPS = 1000
+"""Gradient steps of behaviour cloning (batches drawn from the demos) before a run with --demos
+learns."""
 """Replay buffer size when a config is checked by building its model (not the run's own)."""
 VERSIONS = ("clutter-gym", "stable-baselines3", "sb3-contrib", "torch", "gymnasium", "numpy")
 
@@ -436,24 +439,30 @@ def _fresh(job: TrainJob, venv: Any) -> Any:
     for stale in (files.EVAL_CSV, files.BEST_JSON, files.BEST_MODEL, files.BEST_VECNORMALIZE):
         (directory / stale).unlink(missing_ok=True)
     if job.demos is not None:
-        added = _prefill(job, model)
-        print(f"{directory}: {added} demonstration steps in the replay buffer", file=sys.stderr)
+        pairs = _prefill(job, model)
+        loss = _behaviour_clone(model, pairs, job.seed)
+        print(
+            f"{directory}: {len(pairs)} demonstration steps in the replay buffer; the actor "
+            f"cloned them (action error {loss:.3f})",
+            file=sys.stderr,
+        )
     _write_run(job, "running", 0)
     print(f"{directory}: training {job.key} on {job.env_id}", file=sys.stderr)
     return model
 
 
-def _prefill(job: TrainJob, model: Any) -> int:
+def _prefill(job: TrainJob, model: Any) -> list[tuple[Any, np.ndarray]]:
     """Replay the successful demos in the run's env (reset with their seeds, from the ordinary
     start) and add every step to the model's replay buffer, as SB3's own rollouts add them
-    (batch of one env; for HER, each demo is one whole episode). Returns the steps added."""
+    (batch of one env; for HER, each demo is one whole episode). Returns the (observation,
+    action) pairs added."""
     from agents.learning.demos import load_demos, replay
     from agents.learning.lift_env import ClutterRetrieveLiftEnv
 
     demos, _ = load_demos(Path(job.demos or ""))
     env = gym.make(job.env_id, **job.hyperparams.env_kwargs)
     options = {"grasped": False} if isinstance(env.unwrapped, ClutterRetrieveLiftEnv) else None
-    buffer, added = model.replay_buffer, 0
+    buffer, added = model.replay_buffer, []
 
     def batch(obs: Any) -> Any:
         if isinstance(obs, dict):
@@ -474,10 +483,45 @@ def _prefill(job: TrainJob, model: Any) -> int:
                     np.array([ended]),
                     [info],
                 )
-                added += 1
+                added.append((obs, np.asarray(action)))
     finally:
         env.close()
     return added
+
+
+def _behaviour_clone(model: Any, pairs: list[tuple[Any, np.ndarray]], seed: int) -> float:
+    """Fit the actor's deterministic action to the demos' (`BC_STEPS` of mean squared error,
+    batches of the run's batch size) before any step: the replay buffer alone teaches an
+    actor only through a critic that starts random. Returns the last batch's root mean
+    squared action error (actions in [-1, 1])."""
+    import torch
+
+    if not pairs:
+        return 0.0
+    first = pairs[0][0]
+    if isinstance(first, dict):
+        stacked: Any = {key: np.stack([o[key] for o, _ in pairs]) for key in first}
+    else:
+        stacked = np.stack([o for o, _ in pairs])
+    observations, _ = model.policy.obs_to_tensor(stacked)
+    target = torch.as_tensor(model.policy.scale_action(np.stack([a for _, a in pairs])))
+    optimizer, rng = model.actor.optimizer, np.random.default_rng(seed)
+    loss = torch.zeros(())
+    model.policy.set_training_mode(True)
+    for _ in range(BC_STEPS):
+        index = torch.as_tensor(rng.integers(len(pairs), size=int(model.batch_size)))
+        batch = (
+            {k: v[index] for k, v in observations.items()}
+            if isinstance(observations, dict)
+            else observations[index]
+        )
+        acted = model.actor(batch, deterministic=True)
+        loss = torch.nn.functional.mse_loss(acted, target[index])
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    model.policy.set_training_mode(False)
+    return float(loss.detach()) ** 0.5
 
 
 def _resumed(job: TrainJob, venv: Any, checkpoint: dict[str, Any]) -> Any:
