@@ -674,18 +674,18 @@ def test_behaviour_cloning_fits_the_actor_to_the_demos(lone_can_demos: tuple[Pat
     from stable_baselines3 import SAC
 
     from agents.learning.demos import load_demos, replay
-    from agents.learning.train import _behaviour_clone
+    from agents.learning.train import DemoCloning
 
     env = gym.make(TRAIN_ENV, level="none", goal_kind="soda_can")
     demos, _ = load_demos(lone_can_demos[0])
-    pairs = [(obs, action) for obs, action, *_ in replay(env, demos[0])[1]]
+    steps = replay(env, demos[0])[1]
     model = SAC("MultiInputPolicy", env, policy_kwargs={"net_arch": [64, 64]}, seed=0)
 
     def error() -> float:
-        acted = np.array([model.predict(obs, deterministic=True)[0] for obs, _ in pairs])
-        return float(np.sqrt(np.mean((acted - np.array([a for _, a in pairs])) ** 2)))
+        acted = np.array([model.predict(s[0], deterministic=True)[0] for s in steps])
+        return float(np.sqrt(np.mean((acted - np.array([s[1] for s in steps])) ** 2)))
 
     before = error()
-    reported = _behaviour_clone(model, pairs, seed=0)
+    reported = DemoCloning(model, steps, seed=0)(1000)
     assert error() < before / 2 and reported < before / 2
     env.close()

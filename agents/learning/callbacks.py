@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, SupportsFloat
 
@@ -178,6 +179,22 @@ class Progress(BaseCallback):
 
     def _on_step(self) -> bool:
         self.bar.update(self.num_timesteps - self.bar.n)
+        return True
+
+
+class KeepCloning(BaseCallback):
+    """``steps`` gradient steps of behaviour cloning of the demos (`train.DemoCloning`) after
+    every env step once the algorithm learns (from ``learning_starts`` on): the actor keeps what the
+    teacher showed while SAC improves on it."""
+
+    def __init__(self, clone: Callable[[int], float], steps: int) -> None:
+        super().__init__()
+        self.clone = clone
+        self.steps = steps
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= getattr(self.model, "learning_starts", 0):
+            self.clone(self.steps)
         return True
 
 

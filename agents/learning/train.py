@@ -73,6 +73,8 @@ RUN_FORMAT = "clutter-gym-train/1"
 JOBS_LOG = "train_jobs.jsonl"
 DRY_BUFFER = 1000
 BC_STEPS = 1000
+CLONE_STEPS = 5
+"""Gradient steps of behaviour cloning after each env step of a --demos run's learning."""
 """Gradient steps of behaviour cloning (batches drawn from the demos) before a run with --demos
 learns."""
 """Replay buffer size when a config is checked by building its model (not the run's own)."""
@@ -373,6 +375,19 @@ def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
         venv = _vec_env(job, job.seed + start)
         stack.callback(venv.close)  # no worker processes left behind, whatever happens
         model = _fresh(job, venv) if checkpoint is None else _resumed(job, venv, checkpoint)
+        extra = []
+        if job.demos is not None:
+            demos = _demo_steps(job)
+            cloning = DemoCloning(model, demos, job.seed + start)
+            if checkpoint is None:
+                _prefill(model, demos)
+                error = cloning(BC_STEPS)
+                print(
+                    f"{directory}: {len(demos)} demonstration steps in the replay buffer; the "
+                    f"actor cloned them (action error {error:.3f})",
+                    file=sys.stderr,
+                )
+            extra.append(callbacks.KeepCloning(cloning, CLONE_STEPS))
         eval_env, episodes = _eval_env(job)  # after the model: its seeding comes first
         stack.callback(eval_env.close)
         bar = stack.enter_context(
@@ -389,6 +404,7 @@ def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
                 evaluation,
                 saving,
                 callbacks.StopOnInterrupt(interrupt),
+                *extra,
             ],
             reset_num_timesteps=start == 0,
             tb_log_name=job.algo.upper(),
@@ -438,90 +454,94 @@ def _fresh(job: TrainJob, venv: Any) -> Any:
     )
     for stale in (files.EVAL_CSV, files.BEST_JSON, files.BEST_MODEL, files.BEST_VECNORMALIZE):
         (directory / stale).unlink(missing_ok=True)
-    if job.demos is not None:
-        pairs = _prefill(job, model)
-        loss = _behaviour_clone(model, pairs, job.seed)
-        print(
-            f"{directory}: {len(pairs)} demonstration steps in the replay buffer; the actor "
-            f"cloned them (action error {loss:.3f})",
-            file=sys.stderr,
-        )
+
     _write_run(job, "running", 0)
     print(f"{directory}: training {job.key} on {job.env_id}", file=sys.stderr)
     return model
 
 
-def _prefill(job: TrainJob, model: Any) -> list[tuple[Any, np.ndarray]]:
-    """Replay the successful demos in the run's env (reset with their seeds, from the ordinary
-    start) and add every step to the model's replay buffer, as SB3's own rollouts add them
-    (batch of one env; for HER, each demo is one whole episode). Returns the (observation,
-    action) pairs added."""
+Transition = tuple[Any, np.ndarray, float, Any, bool, bool, dict[str, Any]]
+"""(obs, action, reward, next_obs, terminated, truncated, info) of one env step."""
+
+
+def _demo_steps(job: TrainJob) -> list[Transition]:
+    """The successful demos replayed in the run's env (reset with their seeds, from the
+    ordinary start), every step."""
     from agents.learning.demos import load_demos, replay
     from agents.learning.lift_env import ClutterRetrieveLiftEnv
 
     demos, _ = load_demos(Path(job.demos or ""))
     env = gym.make(job.env_id, **job.hyperparams.env_kwargs)
     options = {"grasped": False} if isinstance(env.unwrapped, ClutterRetrieveLiftEnv) else None
-    buffer, added = model.replay_buffer, []
+    try:
+        return [step for d in demos if d.success for step in replay(env, d, options)[1]]
+    finally:
+        env.close()
+
+
+def _prefill(model: Any, steps: list[Transition]) -> None:
+    """Add demo steps to the model's replay buffer as SB3's own rollouts add them (a batch of
+    one env; for HER, each demo is one whole episode)."""
 
     def batch(obs: Any) -> Any:
         if isinstance(obs, dict):
             return {key: np.asarray(value)[None] for key, value in obs.items()}
         return np.asarray(obs)[None]
 
-    try:
-        for demo in (d for d in demos if d.success):
-            _, steps = replay(env, demo, options)
-            for obs, action, reward, next_obs, terminated, truncated, info in steps:
-                ended = terminated or truncated
-                info = {**info, "TimeLimit.truncated": truncated and not terminated}
-                buffer.add(
-                    batch(obs),
-                    batch(next_obs),
-                    model.policy.scale_action(np.asarray(action))[None],
-                    np.array([reward], dtype=np.float32),
-                    np.array([ended]),
-                    [info],
-                )
-                added.append((obs, np.asarray(action)))
-    finally:
-        env.close()
-    return added
-
-
-def _behaviour_clone(model: Any, pairs: list[tuple[Any, np.ndarray]], seed: int) -> float:
-    """Fit the actor's deterministic action to the demos' (`BC_STEPS` of mean squared error,
-    batches of the run's batch size) before any step: the replay buffer alone teaches an
-    actor only through a critic that starts random. Returns the last batch's root mean
-    squared action error (actions in [-1, 1])."""
-    import torch
-
-    if not pairs:
-        return 0.0
-    first = pairs[0][0]
-    if isinstance(first, dict):
-        stacked: Any = {key: np.stack([o[key] for o, _ in pairs]) for key in first}
-    else:
-        stacked = np.stack([o for o, _ in pairs])
-    observations, _ = model.policy.obs_to_tensor(stacked)
-    target = torch.as_tensor(model.policy.scale_action(np.stack([a for _, a in pairs])))
-    optimizer, rng = model.actor.optimizer, np.random.default_rng(seed)
-    loss = torch.zeros(())
-    model.policy.set_training_mode(True)
-    for _ in range(BC_STEPS):
-        index = torch.as_tensor(rng.integers(len(pairs), size=int(model.batch_size)))
-        batch = (
-            {k: v[index] for k, v in observations.items()}
-            if isinstance(observations, dict)
-            else observations[index]
+    for obs, action, reward, next_obs, terminated, truncated, info in steps:
+        model.replay_buffer.add(
+            batch(obs),
+            batch(next_obs),
+            model.policy.scale_action(np.asarray(action))[None],
+            np.array([reward], dtype=np.float32),
+            np.array([terminated or truncated]),
+            [{**info, "TimeLimit.truncated": truncated and not terminated}],
         )
-        acted = model.actor(batch, deterministic=True)
-        loss = torch.nn.functional.mse_loss(acted, target[index])
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-    model.policy.set_training_mode(False)
-    return float(loss.detach()) ** 0.5
+
+
+class DemoCloning:
+    """Behaviour cloning of the demos' actions by the actor's deterministic action (mean
+    squared error, batches of the run's batch size drawn from the demos), called for a number
+    of gradient steps: before the run learns (`BC_STEPS`), then `CLONE_STEPS` after every env
+    step of it (`callbacks.KeepCloning`). The cloned actor grasped the can in 10 of 10 episodes
+    of the grasp stage's first evaluation; left to SAC's updates alone, with a critic that
+    starts random or one first trained on the demos, it grasped in none of the evaluations
+    after (to 8k steps); with one cloning step per env step, in none to 3k; with five, it fell
+    to 0-1 of 10 and came back to 8 of 10 at 5k steps."""
+
+    def __init__(self, model: Any, steps: list[Transition], seed: int) -> None:
+        import torch
+
+        self.model = model
+        first = steps[0][0]
+        if isinstance(first, dict):
+            stacked: Any = {key: np.stack([s[0][key] for s in steps]) for key in first}
+        else:
+            stacked = np.stack([s[0] for s in steps])
+        self.observations, _ = model.policy.obs_to_tensor(stacked)
+        actions = np.stack([np.asarray(s[1]) for s in steps])
+        self.actions = torch.as_tensor(model.policy.scale_action(actions))
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, gradient_steps: int) -> float:
+        """Root mean squared action error of the last batch (actions in [-1, 1])."""
+        import torch
+
+        model, loss = self.model, torch.zeros(())
+        model.policy.set_training_mode(True)
+        for _ in range(gradient_steps):
+            rows = self.rng.integers(len(self.actions), size=int(model.batch_size))
+            index = torch.as_tensor(rows)
+            obs = self.observations
+            batch = {k: v[index] for k, v in obs.items()} if isinstance(obs, dict) else obs[index]
+            loss = torch.nn.functional.mse_loss(
+                model.actor(batch, deterministic=True), self.actions[index]
+            )
+            model.actor.optimizer.zero_grad()
+            loss.backward()
+            model.actor.optimizer.step()
+        model.policy.set_training_mode(False)
+        return float(loss.detach()) ** 0.5
 
 
 def _resumed(job: TrainJob, venv: Any, checkpoint: dict[str, Any]) -> Any:
