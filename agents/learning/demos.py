@@ -4,18 +4,19 @@ An end-effector agent learns from ``(obs, action)`` sequences of its own env, so
 pushing planner (joint trajectories) is turned into the end-effector env's actions (TCP deltas,
 a turn about the vertical, the hand's closure) by following it there, in physics:
 
-1. the episode is reset with a seed; the planner plans from the first detection of every object
-   (the same noise model as the env's), as `clutter-gym evaluate`'s planner agents do;
-2. the planner starts from the arm's configuration at reset (the env's ready pose), so its
-   free-space segments (the approach, the transits between actions) are joint paths from where
-   the arm is; every segment becomes TCP waypoints, the forward kinematics of its joint rows,
-   interpolated in joint space until the TCP moves at most 1 cm between two of them (the
-   end-effector controller keeps the hand level and follows the TCP and the heading, and a
-   joint path keeps to the arm's reachable side: a level hand pointing straight ahead in
-   front of the shoulder is out of the wrist's range);
+1. the episode is reset with a seed; the planner plans from a detection of every object drawn
+   with the env's noise, from the arm's configuration at reset (the env's ready pose), its
+   push and grasp directions measured from the ready TCP and within `TURN_LIMIT_DEG` of the
+   line to the object (`PlannerSettings.heading_origin`): a level hand turns little;
+2. every segment of the plan becomes TCP waypoints, the forward kinematics of its joint rows
+   interpolated in joint space until the TCP moves at most 1 cm between two of them; a
+   free-space segment (the approach, a transit between actions) is first replaced by a
+   straight level TCP line to its end, or two through a point above it, where the arm can
+   follow one continuously and clear of the surface (the end-effector controller keeps the
+   hand level and follows the TCP and its heading; a GoTo joint path swings the TCP a metre);
 3. a proportional tracker sends, every step, the action that brings the TCP to the next
    waypoint (at most 1 cm, the env's step) and the hand's heading to the waypoint's, with the
-   segment's hand closure; a closing hand is held still until the fingers have closed.
+   segment's hand closure; a closing hand is held still until its fingers stop.
 
 The actions are recorded as they are sent. The simulation is deterministic, so replaying them
 in the env reset with the same seed repeats the episode (`replay`); `record_demos` keeps every
