@@ -673,8 +673,8 @@ def test_demos_the_run_cannot_use_are_one_line(
 def test_behaviour_cloning_fits_the_actor_to_the_demos(lone_can_demos: tuple[Path, int]) -> None:
     from stable_baselines3 import SAC
 
+    from agents.learning.callbacks import DemoCloning
     from agents.learning.demos import load_demos, replay
-    from agents.learning.train import DemoCloning
 
     env = gym.make(TRAIN_ENV, level="none", goal_kind="soda_can")
     demos, _ = load_demos(lone_can_demos[0])

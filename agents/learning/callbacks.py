@@ -19,6 +19,8 @@ from pathlib import Path
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
+import numpy as np
+import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.monitor import Monitor
@@ -182,8 +184,49 @@ class Progress(BaseCallback):
         return True
 
 
+class DemoCloning:
+    """Behaviour cloning of the demos' actions by the actor's deterministic action (mean
+    squared error, batches of the run's batch size drawn from the demos), called for a number
+    of gradient steps: before the run learns (`train.BC_STEPS`), then `train.CLONE_STEPS` after
+    every env step of it (`KeepCloning`). The cloned actor grasped the can in 10 of 10 episodes
+    of the grasp stage's first evaluation; left to SAC's updates alone, with a critic that
+    starts random or one first trained on the demos, it grasped in none of the evaluations
+    after (to 8k steps); with one cloning step per env step, in none to 3k; with five, it fell
+    to 0-1 of 10 and came back to 8 of 10 at 5k steps."""
+
+    def __init__(self, model: Any, steps: list[Any], seed: int) -> None:
+        self.model = model
+        first = steps[0][0]
+        if isinstance(first, dict):
+            stacked: Any = {key: np.stack([s[0][key] for s in steps]) for key in first}
+        else:
+            stacked = np.stack([s[0] for s in steps])
+        self.observations, _ = model.policy.obs_to_tensor(stacked)
+        actions = np.stack([np.asarray(s[1]) for s in steps])
+        self.actions = torch.as_tensor(model.policy.scale_action(actions))
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, gradient_steps: int) -> float:
+        """Root mean squared action error of the last batch (actions in [-1, 1])."""
+        model, loss = self.model, torch.zeros(())
+        model.policy.set_training_mode(True)
+        for _ in range(gradient_steps):
+            rows = self.rng.integers(len(self.actions), size=int(model.batch_size))
+            index = torch.as_tensor(rows)
+            obs = self.observations
+            batch = {k: v[index] for k, v in obs.items()} if isinstance(obs, dict) else obs[index]
+            loss = torch.nn.functional.mse_loss(
+                model.actor(batch, deterministic=True), self.actions[index]
+            )
+            model.actor.optimizer.zero_grad()
+            loss.backward()
+            model.actor.optimizer.step()
+        model.policy.set_training_mode(False)
+        return float(loss.detach()) ** 0.5
+
+
 class KeepCloning(BaseCallback):
-    """``steps`` gradient steps of behaviour cloning of the demos (`train.DemoCloning`) after
+    """``steps`` gradient steps of behaviour cloning of the demos (`DemoCloning`) after
     every env step once the algorithm learns (from ``learning_starts`` on): the actor keeps what the
     teacher showed while SAC improves on it."""
 

@@ -73,6 +73,7 @@ RUN_FORMAT = "clutter-gym-train/1"
 JOBS_LOG = "train_jobs.jsonl"
 DRY_BUFFER = 1000
 BC_STEPS = 1000
+"""Gradient steps of behaviour cloning before a --demos run learns."""
 CLONE_STEPS = 5
 """Gradient steps of behaviour cloning after each env step of a --demos run's learning."""
 """Gradient steps of behaviour cloning (batches drawn from the demos) before a run with --demos
@@ -378,7 +379,7 @@ def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
         extra = []
         if job.demos is not None:
             demos = _demo_steps(job)
-            cloning = DemoCloning(model, demos, job.seed + start)
+            cloning = callbacks.DemoCloning(model, demos, job.seed + start)
             if checkpoint is None:
                 _prefill(model, demos)
                 error = cloning(BC_STEPS)
@@ -497,51 +498,6 @@ def _prefill(model: Any, steps: list[Transition]) -> None:
             np.array([terminated or truncated]),
             [{**info, "TimeLimit.truncated": truncated and not terminated}],
         )
-
-
-class DemoCloning:
-    """Behaviour cloning of the demos' actions by the actor's deterministic action (mean
-    squared error, batches of the run's batch size drawn from the demos), called for a number
-    of gradient steps: before the run learns (`BC_STEPS`), then `CLONE_STEPS` after every env
-    step of it (`callbacks.KeepCloning`). The cloned actor grasped the can in 10 of 10 episodes
-    of the grasp stage's first evaluation; left to SAC's updates alone, with a critic that
-    starts random or one first trained on the demos, it grasped in none of the evaluations
-    after (to 8k steps); with one cloning step per env step, in none to 3k; with five, it fell
-    to 0-1 of 10 and came back to 8 of 10 at 5k steps."""
-
-    def __init__(self, model: Any, steps: list[Transition], seed: int) -> None:
-        import torch
-
-        self.model = model
-        first = steps[0][0]
-        if isinstance(first, dict):
-            stacked: Any = {key: np.stack([s[0][key] for s in steps]) for key in first}
-        else:
-            stacked = np.stack([s[0] for s in steps])
-        self.observations, _ = model.policy.obs_to_tensor(stacked)
-        actions = np.stack([np.asarray(s[1]) for s in steps])
-        self.actions = torch.as_tensor(model.policy.scale_action(actions))
-        self.rng = np.random.default_rng(seed)
-
-    def __call__(self, gradient_steps: int) -> float:
-        """Root mean squared action error of the last batch (actions in [-1, 1])."""
-        import torch
-
-        model, loss = self.model, torch.zeros(())
-        model.policy.set_training_mode(True)
-        for _ in range(gradient_steps):
-            rows = self.rng.integers(len(self.actions), size=int(model.batch_size))
-            index = torch.as_tensor(rows)
-            obs = self.observations
-            batch = {k: v[index] for k, v in obs.items()} if isinstance(obs, dict) else obs[index]
-            loss = torch.nn.functional.mse_loss(
-                model.actor(batch, deterministic=True), self.actions[index]
-            )
-            model.actor.optimizer.zero_grad()
-            loss.backward()
-            model.actor.optimizer.step()
-        model.policy.set_training_mode(False)
-        return float(loss.detach()) ** 0.5
 
 
 def _resumed(job: TrainJob, venv: Any, checkpoint: dict[str, Any]) -> Any:
