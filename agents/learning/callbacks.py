@@ -16,7 +16,7 @@ import os
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, SupportsFloat
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -30,6 +30,9 @@ from tqdm import tqdm
 from agents.learning import runs as files
 from agents.runner.jobs import FirstInterrupt
 from clutter_gym.model.files import atomic_write_text
+
+if TYPE_CHECKING:
+    from agents.learning.demos import Transition
 
 
 def crossed(steps: int, n_envs: int, every: int) -> bool:
@@ -194,7 +197,7 @@ class DemoCloning:
     after (to 8k steps); with one cloning step per env step, in none to 3k; with five, it fell
     to 0-1 of 10 and came back to 8 of 10 at 5k steps."""
 
-    def __init__(self, model: Any, steps: list[Any], seed: int) -> None:
+    def __init__(self, model: Any, steps: list[Transition], seed: int) -> None:
         self.model = model
         first = steps[0][0]
         if isinstance(first, dict):

@@ -77,6 +77,10 @@ class Waypoint:
     passing: bool = False  # on the way: passed within `PASSING`, not stopped at
 
 
+Transition = tuple[Any, np.ndarray, float, Any, bool, bool, dict[str, Any]]
+"""(obs, action, reward, next_obs, terminated, truncated, info) of one env step."""
+
+
 @dataclass(frozen=True)
 class Demo:
     """One episode of the teacher: the env's reset seed, the actions sent, and how it ended."""
@@ -157,7 +161,7 @@ def _dense(kinematics: ArmKinematics, path: np.ndarray) -> np.ndarray:
     return np.vstack(rows)
 
 
-def track(env: gym.Env, obs: Any, points: list[Waypoint]) -> Iterator[np.ndarray]:
+def track(env: gym.Env, points: list[Waypoint]) -> Iterator[np.ndarray]:
     """The tracker's actions, one per step, until the waypoints are done; the caller steps
     the env with each (the tracker reads the robot's TCP, as proprioception)."""
     base = env.unwrapped
@@ -191,7 +195,7 @@ def record_demo(
     env: gym.Env, planner: str, seed: int, budget: float, kinematics: ArmKinematics
 ) -> Demo:
     """One episode of the teacher (module docstring)."""
-    obs, _ = env.reset(seed=seed)
+    env.reset(seed=seed)
     base = env.unwrapped
     assert isinstance(base, ClutterRetrieveEEEnv)
     scene = base.scene
@@ -234,9 +238,9 @@ def record_demo(
     actions: list[np.ndarray] = []
     info: dict[str, Any] = {}
     ended = False
-    for action in track(env, obs, points):
+    for action in track(env, points):
         actions.append(action)
-        obs, _, terminated, truncated, info = env.step(action)
+        _, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             ended = True
             break
@@ -249,16 +253,16 @@ def record_demo(
 
 def replay(
     env: gym.Env, demo: Demo, options: dict[str, Any] | None = None
-) -> tuple[bool, list[tuple[Any, ...]]]:
+) -> tuple[bool, list[Transition]]:
     """Replay a demo's actions in ``env`` reset with its seed (and ``options``): whether it
     succeeds, and the transitions (obs, action, reward, next_obs, terminated, truncated,
     info)."""
     obs, _ = env.reset(seed=demo.seed, options=options)
-    transitions: list[tuple[Any, ...]] = []
+    transitions: list[Transition] = []
     info: dict[str, Any] = {}
     for action in demo.actions:
         next_obs, reward, terminated, truncated, info = env.step(action)
-        transitions.append((obs, action, reward, next_obs, terminated, truncated, info))
+        transitions.append((obs, action, float(reward), next_obs, terminated, truncated, info))
         obs = next_obs
         if terminated or truncated:
             break

@@ -67,6 +67,7 @@ from clutter_gym.model.files import atomic_write_text
 
 if TYPE_CHECKING:
     from agents.learning.callbacks import EvalEpisodes
+    from agents.learning.demos import Transition
 
 EVAL_SEED = 1_000_000
 RUN_FORMAT = "clutter-gym-train/1"
@@ -459,10 +460,6 @@ def _fresh(job: TrainJob, venv: Any) -> Any:
     _write_run(job, "running", 0)
     print(f"{directory}: training {job.key} on {job.env_id}", file=sys.stderr)
     return model
-
-
-Transition = tuple[Any, np.ndarray, float, Any, bool, bool, dict[str, Any]]
-"""(obs, action, reward, next_obs, terminated, truncated, info) of one env step."""
 
 
 def _demo_steps(job: TrainJob) -> list[Transition]:
