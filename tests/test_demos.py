@@ -64,6 +64,44 @@ def test_save_and_load_keep_every_demo(demos: list[Demo], tmp_path: Path) -> Non
         assert np.array_equal(a.actions, b.actions)
 
 
+def test_in_the_lift_env_a_grasped_start_is_taught_the_planners_lift() -> None:
+    """A grasped start (the env's planned grasp at reset) gets PickUp's straight lift with the
+    hand closed; its replay lifts again, also in a lift env that would not draw that start."""
+    demos = record_demos(
+        "ClutterRetrieveEELift-v0", {**LONE_CAN, "grasped_start": 1.0}, "pushing", 3, 0, 20.0
+    )
+    assert [d.start for d in demos] == ["grasped"] * 3 and all(d.success for d in demos)
+    assert all(np.all(d.actions[:, 4] == 1.0) and d.actions[:, 2].mean() > 0.5 for d in demos)
+    env = gym.make("ClutterRetrieveEELift-v0", **LONE_CAN, grasped_start=0.0)
+    assert all(replay(env, demo)[0] for demo in demos)
+    env.close()
+    env = gym.make("ClutterRetrieveEE-v0", **LONE_CAN)
+    with pytest.raises(ValueError, match=r"^demo 0: starts 'grasped', which only Clutter"):
+        replay(env, demos[0])
+    env.close()
+
+
+def test_save_and_load_keep_each_demos_start(tmp_path: Path) -> None:
+    made = [
+        Demo(k, np.zeros((2, 5), np.float32), True, "", s)
+        for k, s in enumerate(("ready", "grasped"))
+    ]
+    save_demos(tmp_path, made, {})
+    assert [d.start for d in load_demos(tmp_path)[0]] == ["ready", "grasped"]
+
+
+def test_grasped_start_is_refused_for_an_env_without_it(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "agents.cli", "demos", "--env", "ClutterRetrieveEE-v0"]
+        + ["--episodes", "1", "--grasped-start", "0.5", "--out", str(tmp_path / "d")],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "--grasped-start" in result.stderr and "ClutterRetrieveEELift-v0" in result.stderr
+    assert not (tmp_path / "d").exists()
+
+
 def test_loading_demos_from_an_empty_directory_names_the_missing_file(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"^demos: .*no demos\.npz"):
         load_demos(tmp_path)

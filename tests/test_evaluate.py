@@ -7,13 +7,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 from agents.cli import main
+from agents.learning.agent_specs import AgentSpec
 from agents.learning.episodes import MOVED_M, objects_moved
+from agents.learning.evaluate import plan_episodes
 from tests.helpers import TINY_SAC, TRAIN_ENV, TRAIN_SCENES, train_argv, write_config
 from tests.helpers import run_cli as run
 
@@ -118,6 +121,16 @@ BAD: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("level", ["--agent", "scripted", "--level", "extreme"], ("--level", "extreme", "none")),
     ("noise", ["--agent", "scripted", "--noise", "sigma9"], ("--noise", "sigma9", "sigma1")),
     ("env", ["--agent", "scripted", "--env", "Nope-v0"], ("--env", "Nope-v0")),
+    (
+        "grasped start",
+        ["--agent", "scripted", "--grasped-start", "2"],
+        ("--grasped-start", "[0, 1]"),
+    ),
+    (
+        "grasped start, no lift agent",
+        ["--agent", "scripted", "--grasped-start", "0"],
+        ("--grasped-start", "ClutterRetrieveEELift-v0", "none of the agents"),
+    ),
     ("scene file", ["--agent", "scripted", "--scenes", "{tmp}/x.json"], ("--scenes", "no such")),
 ]
 
@@ -134,6 +147,26 @@ def test_bad_input_is_one_line_before_any_work(
     for text in texts:
         assert text in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_grasped_start_changes_only_the_lift_agents_episodes() -> None:
+    """`--grasped-start 0`: the lift agent's success from ordinary starts, the planners'
+    episodes unchanged."""
+    lift = AgentSpec(
+        "lift",
+        "trained",
+        run=SimpleNamespace(  # type: ignore[arg-type]
+            env_id="ClutterRetrieveEELift-v0", env_kwargs={"level": "none", "grasped_start": 0.5}
+        ),
+    )
+    planner = AgentSpec("planner:pg", "planner", planner="pg")
+    jobs = plan_episodes([lift, planner], 1, 7, {"level": "none"}, 20.0, grasped_start=0.0)
+    assert [(j.env_id, j.env_kwargs) for j in jobs] == [
+        ("ClutterRetrieveEELift-v0", {"grasped_start": 0.0, "level": "none"}),
+        ("ClutterRetrieve-v0", {"level": "none"}),
+    ]
+    kept = plan_episodes([lift], 1, 7, {"level": "none"}, 20.0)
+    assert kept[0].env_kwargs["grasped_start"] == 0.5
 
 
 def test_agents_trained_on_other_scenes_need_the_evaluations_scenes(

@@ -651,7 +651,7 @@ def test_demos_pre_fill_the_replay_buffer_of_an_off_policy_run(
         (
             {**TINY_SAC, "env_kwargs": {**TRAIN_SCENES, "level": "medium"}},
             "sac",
-            r"--demos .*: recorded with \{'level': 'none'",
+            r"--demos .*: recorded in scenes \{'level': 'none'",
         ),
     ],
 )
@@ -668,6 +668,24 @@ def test_demos_the_run_cannot_use_are_one_line(
     code, _, err = run(argv, capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert re.search(message, err), err
+
+
+def test_demos_with_grasped_starts_are_refused_outside_the_lift_env(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from agents.learning.demos import Demo, save_demos
+
+    directory = tmp_path / "demos"
+    grasped = Demo(0, np.zeros((3, 5), np.float32), True, "", "grasped")
+    kwargs = {"level": "none", "goal_kind": "soda_can"}
+    save_demos(directory, [grasped], {"env": "ClutterRetrieveEELift-v0", "env_kwargs": kwargs})
+    config = write_config(tmp_path / "c.yml", TINY_SAC)
+    code, _, err = run(
+        train_argv(config, tmp_path / "run", algo="sac", demos=str(directory)), capsys
+    )
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "1 demos start with the goal in the hand" in err and TRAIN_ENV in err
+    assert not (tmp_path / "run").exists()
 
 
 def test_behaviour_cloning_fits_the_actor_to_the_demos(lone_can_demos: tuple[Path, int]) -> None:

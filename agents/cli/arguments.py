@@ -48,6 +48,17 @@ def positive_number(text: str) -> float:
     return value
 
 
+def fraction(text: str) -> float:
+    """A number in [0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{shown(text)} is not a fraction in [0, 1]")
+    return value
+
+
 def number_or_all(text: str) -> float | str:
     """A finite number > 0, or "all"."""
     return "all" if text == "all" else positive_number(text)

@@ -11,6 +11,7 @@ from agents.cli.arguments import (
     COUNT,
     SEED,
     agent,
+    fraction,
     input_dir,
     input_file,
     integers,
@@ -116,6 +117,13 @@ def add_evaluate(parser: argparse.ArgumentParser) -> None:
         "--scenes", type=input_file, nargs="+", default=None, help="scene files to draw from"
     )
     parser.add_argument("--budget", type=positive_number, default=20.0, help="planning [s]")
+    parser.add_argument(
+        "--grasped-start",
+        type=fraction,
+        default=None,
+        help="agents trained on ClutterRetrieveEELift-v0: the fraction of episodes that start "
+        "with the goal in the hand (None: as trained)",
+    )
     parser.add_argument("--workers", type=COUNT, default=1, help="episodes in parallel")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where jobs run")
 
@@ -137,7 +145,9 @@ def run_evaluate(args: argparse.Namespace) -> int:
         "scenes": [str(path) for path in args.scenes] if args.scenes else None,
     }
     scenes = scene_keywords(args.agent, {k: v for k, v in given.items() if v is not None})
-    jobs = plan_episodes(args.agent, args.episodes, args.seed, scenes, args.budget)
+    jobs = plan_episodes(
+        args.agent, args.episodes, args.seed, scenes, args.budget, args.grasped_start
+    )
     check_envs(jobs)
     check_agents(jobs)
     report = run_evaluation(
@@ -149,7 +159,12 @@ def run_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-DEMO_ENVS = ("ClutterRetrieveEE-v0", "ClutterRetrieveEEDense-v0", "ClutterRetrieveEEGrasp-v0")
+DEMO_ENVS = (
+    "ClutterRetrieveEE-v0",
+    "ClutterRetrieveEEDense-v0",
+    "ClutterRetrieveEEGrasp-v0",
+    "ClutterRetrieveEELift-v0",
+)
 
 
 def add_demos(parser: argparse.ArgumentParser) -> None:
@@ -165,14 +180,33 @@ def add_demos(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--goal-kind", choices=GOAL_KINDS, default="soda_can", help="goal's kind")
     parser.add_argument("--noise", type=noise, default="sigma1", help="detection noise")
     parser.add_argument("--budget", type=positive_number, default=20.0, help="planning [s]")
+    parser.add_argument(
+        "--grasped-start",
+        type=fraction,
+        default=None,
+        help="ClutterRetrieveEELift-v0 only: the fraction of episodes that start with the goal "
+        "in the hand (None: the env's default, 0.5)",
+    )
 
 
 def run_demos(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from agents.learning.demos import Demo, record_demos, save_demos
+    from agents.learning.lift_env import LIFT_ENV_ID
 
-    env_kwargs = {"level": args.level, "goal_kind": args.goal_kind, "noise": args.noise}
+    env_kwargs: dict[str, object] = {
+        "level": args.level,
+        "goal_kind": args.goal_kind,
+        "noise": args.noise,
+    }
+    if args.grasped_start is not None:
+        if args.env != LIFT_ENV_ID:
+            raise ValueError(
+                f"--grasped-start: only {LIFT_ENV_ID} starts with the goal in the hand, "
+                f"not {args.env}"
+            )
+        env_kwargs["grasped_start"] = args.grasped_start
     with tqdm(total=args.episodes, desc=f"demos ({args.planner})", unit="episode") as bar:
 
         def done(demo: Demo) -> None:

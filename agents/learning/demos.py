@@ -18,6 +18,10 @@ a turn about the vertical, the hand's closure) by following it there, in physics
    waypoint (at most 1 cm, the env's step) and the hand's heading to the waypoint's, with the
    segment's hand closure; a closing hand is held still until its fingers stop.
 
+In `ClutterRetrieveEELift-v0` an episode may start with the goal already gripped (the env's
+planned grasp, run at reset): the teacher then does what the planner's PickUp does after
+closing, a straight lift of `LIFT` with the hand closed, as TCP waypoints 1 cm apart.
+
 The actions are recorded as they are sent. The simulation is deterministic, so replaying them
 in the env reset with the same seed repeats the episode (`replay`); `record_demos` keeps every
 episode, the failed ones with their reason, so that the success rate of the teacher is known.
@@ -36,6 +40,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.learning.lift_env import LIFT_ENV_ID, ClutterRetrieveLiftEnv
 from clutter_gym.env import ClutterRetrieveEEEnv
 from clutter_gym.model.collision import make_checker
 from clutter_gym.model.files import atomic_write_text
@@ -45,8 +50,9 @@ from clutter_gym.model.objects import get_object
 from clutter_gym.model.trajectory import Trajectory
 from clutter_gym.model.world import get_surface
 from clutter_gym.sim.controllers import EE_STEP, YAW_STEP
+from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import plan_retrieval
+from planners.rearrange import Plan, plan_retrieval
 from planners.uncertainty import beliefs, sample_count
 
 FREE_SPACE = ("approach", "transit")
@@ -89,6 +95,7 @@ class Demo:
     actions: np.ndarray  # (T, 5) float32
     success: bool
     reason: str  # "" on success; why planning or the execution failed otherwise
+    start: str = "ready"  # how the env's reset began (`ClutterRetrieveEELift-v0`'s start kinds)
 
 
 def heading_of(pose: np.ndarray) -> float:
@@ -123,6 +130,15 @@ def plan_waypoints(
             points.append(Waypoint(end[:3, 3].copy(), heading_of(end), closure, CLOSE_STEPS))
         q = segment.path[-1]
     return points
+
+
+def lift_waypoints(tcp: np.ndarray, heading: float) -> list[Waypoint]:
+    """A closed hand's straight lift of `LIFT` from ``tcp``, a waypoint every centimetre."""
+    rises = np.arange(1, round(LIFT / WAYPOINT_SPACING) + 1) * WAYPOINT_SPACING
+    return [
+        Waypoint(tcp + [0.0, 0.0, dz], heading, GRASP_CLOSURE, passing=k < len(rises) - 1)
+        for k, dz in enumerate(rises)
+    ]
 
 
 def _level_route(
@@ -195,9 +211,44 @@ def record_demo(
     env: gym.Env, planner: str, seed: int, budget: float, kinematics: ArmKinematics
 ) -> Demo:
     """One episode of the teacher (module docstring)."""
-    env.reset(seed=seed)
+    _, reset_info = env.reset(seed=seed)
+    start = str(reset_info.get("start", "ready"))
     base = env.unwrapped
     assert isinstance(base, ClutterRetrieveEEEnv)
+    tcp, quaternion = base.herb.tcp_pose()
+    if start == "grasp failed":
+        return Demo(seed, np.zeros((0, 5), np.float32), False, "the grasp at reset failed", start)
+    if start == "grasped":
+        points = lift_waypoints(tcp, _heading(quaternion))
+    else:
+        plan = _plan(base, planner, seed, budget, tcp)
+        if not plan.success:
+            return Demo(seed, np.zeros((0, 5), np.float32), False, f"no plan: {plan.reason}")
+        # The exact surface: the planner's 1.5 cm padding, for the position-controlled arm's
+        # lag, rules out the wrist passing 1 cm over the table's front edge, which the
+        # end-effector controller's TCP-level motion does.
+        free = make_checker(base.surface, {}, padding=0.0).checker(objects=False)
+        points = plan_waypoints(plan.trajectory, kinematics, base.herb.arm_state()[0], free)
+    actions: list[np.ndarray] = []
+    info: dict[str, Any] = {}
+    ended = False
+    for action in track(env, points):
+        actions.append(action)
+        _, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            ended = True
+            break
+    recorded = np.array(actions, dtype=np.float32).reshape(-1, 5)
+    if info.get("is_success"):
+        return Demo(seed, recorded, True, "", start)
+    why = info.get("failure") or ("the time limit" if ended else "the plan ended")
+    return Demo(seed, recorded, False, f"execution: {why}", start)
+
+
+def _plan(
+    base: ClutterRetrieveEEEnv, planner: str, seed: int, budget: float, tcp: np.ndarray
+) -> Plan:
+    """The planner's plan from the env's first state, on detections drawn with its noise."""
     scene = base.scene
     rng = np.random.default_rng(seed)
     sigma = base.noise_override or resolve_noise(scene.noise)  # what the env detects with
@@ -212,14 +263,13 @@ def record_demo(
         sample_count(sigma),
         rng,
     )
-    tcp, _ = base.herb.tcp_pose()
     settings = PlannerSettings(
         time_budget=budget,
         seed=seed,
         max_heading_deg=TURN_LIMIT_DEG,
         heading_origin=(float(tcp[0]), float(tcp[1])),
     )
-    plan = plan_retrieval(
+    return plan_retrieval(
         get_surface(scene.surface),
         believed,
         scene.goal.object,
@@ -228,35 +278,16 @@ def record_demo(
         scene.goal.region,
         planner,
     )
-    if not plan.success:
-        return Demo(seed, np.zeros((0, 5), np.float32), False, f"no plan: {plan.reason}")
-    # The exact surface: the planner's 1.5 cm padding, for the position-controlled arm's lag,
-    # rules out the wrist passing 1 cm over the table's front edge, which the end-effector
-    # controller's TCP-level motion does.
-    free = make_checker(base.surface, {}, padding=0.0).checker(objects=False)
-    points = plan_waypoints(plan.trajectory, kinematics, base.herb.arm_state()[0], free)
-    actions: list[np.ndarray] = []
-    info: dict[str, Any] = {}
-    ended = False
-    for action in track(env, points):
-        actions.append(action)
-        _, _, terminated, truncated, info = env.step(action)
-        if terminated or truncated:
-            ended = True
-            break
-    recorded = np.array(actions, dtype=np.float32).reshape(-1, 5)
-    if info.get("is_success"):
-        return Demo(seed, recorded, True, "")
-    why = info.get("failure") or ("the time limit" if ended else "the plan ended")
-    return Demo(seed, recorded, False, f"execution: {why}")
 
 
-def replay(
-    env: gym.Env, demo: Demo, options: dict[str, Any] | None = None
-) -> tuple[bool, list[Transition]]:
-    """Replay a demo's actions in ``env`` reset with its seed (and ``options``): whether it
-    succeeds, and the transitions (obs, action, reward, next_obs, terminated, truncated,
-    info)."""
+def replay(env: gym.Env, demo: Demo) -> tuple[bool, list[Transition]]:
+    """Replay a demo's actions in ``env`` reset with its seed (and, in the lift env, its
+    start): whether it succeeds, and the transitions (obs, action, reward, next_obs,
+    terminated, truncated, info)."""
+    lifting = isinstance(env.unwrapped, ClutterRetrieveLiftEnv)
+    if demo.start != "ready" and not lifting:
+        raise ValueError(f"demo {demo.seed}: starts {demo.start!r}, which only {LIFT_ENV_ID} has")
+    options = {"grasped": demo.start != "ready"} if lifting else None
     obs, _ = env.reset(seed=demo.seed, options=options)
     transitions: list[Transition] = []
     info: dict[str, Any] = {}
@@ -303,6 +334,7 @@ def save_demos(out: Path, demos: list[Demo], meta: dict[str, Any]) -> None:
         lengths=np.array([len(d.actions) for d in demos], dtype=np.int64),
         seeds=np.array([d.seed for d in demos], dtype=np.int64),
         success=np.array([d.success for d in demos], dtype=bool),
+        starts=np.array([d.start for d in demos], dtype=str),
     )
     failures = {str(d.seed): d.reason for d in demos if not d.success}
     summary = {
@@ -325,13 +357,17 @@ def load_demos(directory: Path) -> tuple[list[Demo], dict[str, Any]]:
     failures = meta.get("failures", {})
     with np.load(data_path) as data:
         bounds = np.concatenate([[0], np.cumsum(data["lengths"])])
+        starts = data["starts"]
         demos = [
             Demo(
                 int(seed),
                 data["actions"][bounds[i] : bounds[i + 1]],
                 bool(ok),
                 failures.get(str(int(seed)), ""),
+                str(start),
             )
-            for i, (seed, ok) in enumerate(zip(data["seeds"], data["success"], strict=True))
+            for i, (seed, ok, start) in enumerate(
+                zip(data["seeds"], data["success"], starts, strict=True)
+            )
         ]
     return demos, meta

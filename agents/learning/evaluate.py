@@ -29,6 +29,7 @@ import numpy as np
 
 from agents.learning.agent_specs import AgentSpec
 from agents.learning.episodes import Act, env_scene, run_episode
+from agents.learning.lift_env import LIFT_ENV_ID
 from agents.learning.runs import TrainedRun, make_env, one_torch_thread
 from agents.policies.rearrange import RearrangePolicy
 from agents.policies.scripted import DirectGraspPolicy
@@ -89,13 +90,28 @@ class EvalJob:
 
 
 def plan_episodes(
-    agents: list[AgentSpec], episodes: int, seed: int, scenes: dict[str, Any], budget: float
+    agents: list[AgentSpec],
+    episodes: int,
+    seed: int,
+    scenes: dict[str, Any],
+    budget: float,
+    grasped_start: float | None = None,
 ) -> list[EvalJob]:
+    """Every agent's episodes; a trained agent acts in its own variant with its own keywords,
+    but ``scenes``, and ``grasped_start`` (if given) for the agents of the lift variant."""
     jobs = []
+    lifting = [a for a in agents if a.run is not None and a.run.env_id == LIFT_ENV_ID]
+    if grasped_start is not None and not lifting:
+        raise ValueError(
+            f"--grasped-start: {grasped_start} is for agents trained on {LIFT_ENV_ID}; "
+            "none of the agents is"
+        )
     for agent in agents:
         env_id, kwargs = TRAJECTORY_ID, dict(scenes)
         if agent.run is not None:
             own = {k: v for k, v in agent.run.env_kwargs.items() if k not in SCENE_KEYWORDS}
+            if agent in lifting and grasped_start is not None:
+                own["grasped_start"] = grasped_start
             env_id, kwargs = agent.run.env_id, {**own, **scenes}
         jobs += [EvalJob(agent, k, seed + k, env_id, kwargs, budget) for k in range(episodes)]
     return jobs

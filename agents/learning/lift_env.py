@@ -37,6 +37,7 @@ GRASP_WAYPOINTS = 64
 GRASP_SPEED = SegmentSpeed(0.05)
 """The approach at the trajectory env's quasi-static hand speed (m/s)."""
 START_KINDS = ("ready", "grasped", "grasp failed")
+LIFT_ENV_ID = "ClutterRetrieveEELift-v0"
 
 
 class ClutterRetrieveLiftEnv(ClutterRetrieveEEEnv):

@@ -228,14 +228,21 @@ def check_demos(job: TrainJob) -> None:
     if job.hyperparams.normalize:
         raise ValueError("--demos: the entry normalises observations; demos need them raw")
     from agents.learning.demos import load_demos
+    from agents.learning.lift_env import LIFT_ENV_ID
 
-    _, meta = load_demos(Path(job.demos))
-    recorded = meta.get("env_kwargs", {})
+    demos, meta = load_demos(Path(job.demos))
+    recorded = {k: v for k, v in meta.get("env_kwargs", {}).items() if k != "grasped_start"}
     scenes = {k: v for k, v in job.hyperparams.env_kwargs.items() if k in recorded}
     if scenes != {k: recorded[k] for k in scenes} or set(recorded) - set(scenes):
         raise ValueError(
-            f"--demos {job.demos}: recorded with {recorded}; the run's env_kwargs are "
+            f"--demos {job.demos}: recorded in scenes {recorded}; the run's env_kwargs are "
             f"{job.hyperparams.env_kwargs}"
+        )
+    grasped = sum(d.start != "ready" for d in demos)
+    if grasped and job.env_id != LIFT_ENV_ID:
+        raise ValueError(
+            f"--demos {job.demos}: {grasped} demos start with the goal in the hand, which only "
+            f"{LIFT_ENV_ID} does; {job.env_id} replays demos recorded from the ready pose"
         )
 
 
@@ -463,16 +470,14 @@ def _fresh(job: TrainJob, venv: Any) -> Any:
 
 
 def _demo_steps(job: TrainJob) -> list[Transition]:
-    """The successful demos replayed in the run's env (reset with their seeds, from the
-    ordinary start), every step."""
+    """The successful demos replayed in the run's env (reset with their seeds and starts),
+    every step."""
     from agents.learning.demos import load_demos, replay
-    from agents.learning.lift_env import ClutterRetrieveLiftEnv
 
     demos, _ = load_demos(Path(job.demos or ""))
     env = gym.make(job.env_id, **job.hyperparams.env_kwargs)
-    options = {"grasped": False} if isinstance(env.unwrapped, ClutterRetrieveLiftEnv) else None
     try:
-        return [step for d in demos if d.success for step in replay(env, d, options)[1]]
+        return [step for d in demos if d.success for step in replay(env, d)[1]]
     finally:
         env.close()
 
