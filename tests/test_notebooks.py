@@ -38,3 +38,8 @@ def test_notebook_runs_from_any_directory(
     if notebook.name == "learning.ipynb":
         assert len(namespace["evaluation"]["summary"]) == 2  # the trained agent and PG
         assert namespace["figure"].is_file()
+        ee = namespace["grasp_evaluation"]["summary"]
+        assert (
+            len(ee) == 2 and ee["planner:pushing"]["episodes"] == 2
+        )  # the SAC agent and the teacher
+        assert namespace["grasp_figure"].is_file()
