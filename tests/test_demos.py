@@ -87,7 +87,9 @@ def test_save_and_load_keep_each_demos_start(tmp_path: Path) -> None:
         for k, s in enumerate(("ready", "grasped"))
     ]
     save_demos(tmp_path, made, {})
-    assert [d.start for d in load_demos(tmp_path)[0]] == ["ready", "grasped"]
+    loaded, meta = load_demos(tmp_path)
+    assert [d.start for d in loaded] == ["ready", "grasped"]
+    assert meta["starts"] == {"ready": 1, "grasped": 1, "grasp failed": 0}
 
 
 def test_grasped_start_is_refused_for_an_env_without_it(tmp_path: Path) -> None:

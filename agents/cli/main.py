@@ -15,8 +15,9 @@ clutter-gym train --algo ppo|sac|tqc[,...] --env ID [--config agents/hyperparams
 clutter-gym evaluate --agent DIR|planner:pushing|planner:pg|planner:tsr|scripted [--agent ...]
     --env ID --episodes N --seed S --json out.json [--md out.md]
     [--level none] [--goal-kind soda_can] [--noise sigma1] [--scenes a.json ...]
+    [--grasped-start 0]
 clutter-gym demos --planner pushing --env ClutterRetrieveEE-v0 --episodes N --out DIR
-    [--level none] [--goal-kind soda_can] [--noise sigma1] [--seed S]
+    [--level none] [--goal-kind soda_can] [--noise sigma1] [--seed S] [--grasped-start 0.5]
 clutter-gym plot-training DIR... --out fig.png
 clutter-gym gif-frames --gif out/demo/demo.gif --out frames.png [--frames 8] [--columns 4]
 

@@ -40,7 +40,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.learning.lift_env import LIFT_ENV_ID, ClutterRetrieveLiftEnv
+from agents.learning.lift_env import LIFT_ENV_ID, START_KINDS, ClutterRetrieveLiftEnv
 from clutter_gym.env import ClutterRetrieveEEEnv
 from clutter_gym.model.collision import make_checker
 from clutter_gym.model.files import atomic_write_text
@@ -341,6 +341,7 @@ def save_demos(out: Path, demos: list[Demo], meta: dict[str, Any]) -> None:
         **meta,
         "episodes": len(demos),
         "successes": sum(d.success for d in demos),
+        "starts": {start: sum(d.start == start for d in demos) for start in START_KINDS},
         "steps": int(sum(len(d.actions) for d in demos)),
         "failures": failures,
     }
