@@ -109,7 +109,7 @@ class PlanningContext:
                 (p[:, 0] > x0 + m) & (p[:, 0] < x1 - m) & (p[:, 1] > y0 + m) & (p[:, 1] < y1 - m)
             )
         m = STABLE_MARGIN
-        boxes = np.array([footprint.aabb((pose[0], pose[1], pose[2])) for pose in p])
+        boxes = footprint.aabbs(p)
         return np.asarray(
             (boxes[:, 0] >= x0 + m)
             & (boxes[:, 1] <= x1 - m)
