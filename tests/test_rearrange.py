@@ -4,6 +4,7 @@ what blocks the goal, and bad requests fail clearly."""
 from __future__ import annotations
 
 import json
+import math
 import zlib
 from dataclasses import replace
 from importlib import resources
@@ -266,6 +267,31 @@ def test_a_shelf_pickup_beside_the_strip_pulls_the_object_into_it() -> None:
         SHELF, [can], "can", hm.RIGHT_ARM_START, PlannerSettings(time_budget=120.0)
     )
     assert result.success, result.blocked_by
+    final = result.steps[-1].result.nu[-1]
+    assert np.all((final[:, 0] > x0) & (final[:, 0] < x1)), final[:, 0]
+    assert np.all((final[:, 1] > y0) & (final[:, 1] < y1)), final[:, 1]
+
+
+def test_a_can_by_the_shelfs_side_wall_is_pulled_out_turned() -> None:
+    """Grasped by the right wall, a can is pushed and grasped at -19 deg; pulled straight back
+    at that heading into the strip, the wrist is out of reach, so the pull turns the hand about
+    the can (`PULL_TURNS`) and the can still ends in the strip."""
+    from clutter_gym.model.world import SHELF
+
+    (x0, x1), (y0, y1) = SHELF.default_goal_region
+    can = belief("can", "soda_can", (0.74, -0.55, 0.0))
+    result = plan_retrieval(
+        SHELF, [can], "can", hm.RIGHT_ARM_START, PlannerSettings(time_budget=120.0)
+    )
+    assert result.success, result.blocked_by
+    segments = {s.label: s.path for s in result.steps[-1].result.trajectory.segments}
+    kinematics = ArmKinematics("right")
+
+    def heading(q: np.ndarray) -> float:
+        approach = kinematics.fk_tcp(q)[:3, 2]
+        return math.degrees(math.atan2(approach[1], approach[0]))
+
+    assert abs(heading(segments["pull"][-1]) - heading(segments["push"][-1])) >= 14.0
     final = result.steps[-1].result.nu[-1]
     assert np.all((final[:, 0] > x0) & (final[:, 0] < x1)), final[:, 0]
     assert np.all((final[:, 1] > y0) & (final[:, 1] < y1)), final[:, 1]

@@ -5,6 +5,7 @@ grasps share these; pick-and-place (`planners.actions.pick_and_place`) has its o
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -38,6 +39,12 @@ FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
 SHELF_LIFT = 0.02  # m: on the shelf the goal is lifted clear of the board, then pulled out
 STRIP_MARGIN = 0.02  # m inside the goal strip's sides the pulled object's samples must end
+PULL_TURNS = tuple(math.radians(d) for d in (0, 15, -15, 30, -30, 45, -45, 60, -60))
+"""Turns of the hand about the grasped object while it is pulled out of the shelf, fewest
+first: a level hand pointing straight ahead cannot reach the front strip (its wrist would
+need |j6| > 1.56; docs/world.md), so an object grasped from straight in front leaves turned."""
+MAX_CARRIES = 2
+"""Upright carries (GoTo) tried when no straight pull reaches the strip."""
 
 
 @dataclass(frozen=True)
@@ -207,24 +214,48 @@ def _retrieve(
     raise_ = arm.straight(q_end, hand_pose(end_xy, heading, z + SHELF_LIFT), free)
     if raise_ is None:
         return None, nothing
-    # Into the strip's middle along x, and along y only as far as needed to bring every
-    # sample's centre STRIP_MARGIN inside the strip (an object grasped near a wall lies beside
-    # the strip; pulled straight out it would stay there).
-    (x0, x1), (y0, y1) = ctx.goal_region
-    ys = in_hand[:, 1]
-    into = max(y0 + STRIP_MARGIN - float(ys.min()), 0.0)
-    dy = into - max(float(ys.max()) - (y1 - STRIP_MARGIN), 0.0)
-    shift = np.array([(x0 + x1) / 2 - float(in_hand[:, 0].mean()), dy])
-    target = hand_pose(end_xy + shift, heading, z + SHELF_LIFT)
-    pull = arm.straight(raise_[-1], target, free)
+    targets = [_pull_target(ctx, end_xy, heading, z, in_hand, turn) for turn in PULL_TURNS]
+    # Straight pulls first (a Cartesian line, milliseconds), then the upright carry (GoTo on
+    # the constraint manifold, up to the budget) to the targets that have an IK solution.
+    pull = None
+    for target in targets:
+        pull = arm.straight(raise_[-1], target, free)
+        if pull is not None:
+            break
     if pull is None:
-        # Blocked or out of reach in a straight line: carry the object along any path that
-        # keeps it upright (GoTo on the constraint manifold).
-        pull = carry_upright(arm, raise_[-1], target, free)
+        reachable = (target for target in targets if arm.solve(target, free) is not None)
+        for target in itertools.islice(reachable, MAX_CARRIES):
+            pull = carry_upright(arm, raise_[-1], target, free)
+            if pull is not None:
+                break
     if pull is None:
         return None, nothing
     carried = carried_poses(arm, pull, in_hand)
     return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
+
+
+def _pull_target(
+    ctx: PlanningContext,
+    end_xy: np.ndarray,
+    heading: float,
+    z: float,
+    in_hand: np.ndarray,
+    turn: float,
+) -> np.ndarray:
+    """The TCP pose that brings the grasped object into the goal strip with the hand turned by
+    ``turn`` about the object's centre: to the strip's middle along x, and along y only as far
+    as needed to bring every sample's centre STRIP_MARGIN inside it (an object grasped near a
+    wall lies beside the strip; pulled straight out it would stay there)."""
+    centre = in_hand[:, :2].mean(axis=0)
+    rotation = rotation_2d(turn)
+    turned = centre + (in_hand[:, :2] - centre) @ rotation.T
+    (x0, x1), (y0, y1) = ctx.goal_region
+    ys = turned[:, 1]
+    into = max(y0 + STRIP_MARGIN - float(ys.min()), 0.0)
+    dy = into - max(float(ys.max()) - (y1 - STRIP_MARGIN), 0.0)
+    shift = np.array([(x0 + x1) / 2 - float(turned[:, 0].mean()), dy])
+    hand_xy = centre + shift + rotation @ (np.asarray(end_xy) - centre)
+    return hand_pose(hand_xy, heading + turn, z + SHELF_LIFT)
 
 
 def carry_upright(
