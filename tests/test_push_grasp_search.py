@@ -114,3 +114,47 @@ def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
     in_workspace = (np.array([0.70, -0.20]), 0.0)
     assert arm.push_heights([in_workspace]) == [PUSH_HEIGHT, HEIGHTS[1]]
     assert arm.push_heights([in_workspace, near_shoulder]) == [HEIGHTS[1]]
+
+
+def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The hand's motion of a push-grasp (capture, overlap, IK, the arm's motion, nu_o) does
+    not depend on G: a second goal asking to move the same object past the same avoidVol
+    reuses it, meets the same failures, and ends with what a fresh search gives."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+
+    def context() -> PlanningContext:
+        rng = np.random.default_rng(0)
+        beliefs = {}
+        for name, kind, pose in (
+            ("can", "soda_can", (0.70, -0.25, 0.0)),
+            ("bottle", "juice_bottle", (0.70, -0.14, 0.0)),
+        ):
+            samples = sample_poses(pose, (0.005, 0.034), 30, rng)
+            beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
+        settings = PlannerSettings(time_budget=600.0)
+        return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
+
+    centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
+    goals = [AwayFrom(Volume.of_box("ngr", centre, (s, s, 0.2), 0.0)) for s in (0.1, 0.2)]
+
+    def outcomes(ctx: PlanningContext, goal: AwayFrom) -> list[object]:
+        arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+        avoid = ctx.objects_volume(["bottle"])
+        found = push_grasp.push_grasp(ctx, arm, "can", goal, avoid)
+        return [
+            getattr(o, "reason", None) or (o.details["heading_deg"], o.details["offset_m"])
+            for o in found
+        ]
+
+    ctx = context()
+    first = outcomes(ctx, goals[0])
+    assert any(isinstance(o, tuple) for o in first) and any(isinstance(o, str) for o in first)
+    searches = []
+    search = push_grasp._over_offsets
+    monkeypatch.setattr(push_grasp, "_over_offsets", lambda *a: searches.append(1) or search(*a))
+    again = outcomes(ctx, goals[1])
+    assert searches == []
+    monkeypatch.setattr(push_grasp, "_over_offsets", search)
+    assert again == outcomes(context(), goals[1])

@@ -61,7 +61,7 @@ def push_grasp(
         if budget <= 0:
             return
         for aperture in apertures:
-            pushed = yield from _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
+            pushed = yield from _over_offsets_once(ctx, arm, name, avoid, action, heading, aperture)
             if pushed is None:
                 continue
             finishes = _finishes(ctx, arm, name, goal, avoid, action, *pushed)
@@ -122,6 +122,38 @@ def _finishes(
     yield pick_up_or_release(ctx, arm, name, goal, avoid, action, moved, details)
     if action != "pickup":
         yield place(ctx, arm, name, goal, avoid, moved, details)
+
+
+def _over_offsets_once(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
+    """`_over_offsets`, searched once per plan: its checks (capture, the hand's overlap, IK,
+    the arm's motion, nu_o against avoidVol) depend on the object, the heading, the aperture
+    and avoidVol, never on G, so every parent candidate that asks to move the object with the
+    same avoidVol (`PlanningContext.objects_volume`, one object per set of names) reuses the
+    answer; its failures are yielded again, for blocked_by."""
+    key = (name, action, heading, aperture, id(avoid))
+    cached = ctx.hand_ins.get(key)
+    if cached is not None:
+        yield from cached[1]
+        return cached[2]
+    failures: list[Failure] = []
+    search = _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
+    while True:
+        try:
+            failure = next(search)
+        except StopIteration as done:
+            # avoidVol is kept with the answer: its id stays its own while the entry lives.
+            ctx.hand_ins[key] = (avoid, tuple(failures), done.value)
+            return done.value
+        failures.append(failure)
+        yield failure
 
 
 def _over_offsets(
