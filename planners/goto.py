@@ -96,7 +96,7 @@ class JointConstraint:
 
 class _OmplConstraint(ob.Constraint):
     def __init__(self, constraint: JointConstraint, on_jacobian: Callable[[], None]) -> None:
-        super().__init__(DOF, constraint.codimension)
+        super().__init__(DOF, constraint.codimension, constraint.tolerance)
         self.constraint = constraint
         self.on_jacobian = on_jacobian
 

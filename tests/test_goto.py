@@ -217,3 +217,29 @@ def test_constrained_goto_rejects_endpoints_off_the_manifold() -> None:
         constraint=upright_hand(kinematics),
     )
     assert not result.success and "violates the constraint" in result.reason
+
+
+def test_constrained_goto_joins_endpoints_level_within_its_tolerance() -> None:
+    """The ends of the planner's straight lift in the shelf are level to 4.7e-4 and 6.4e-4
+    (a Cartesian path's descent stops at 1e-3 rad): within the constraint's tolerance, so
+    OMPL's manifold must take them (its default, 1e-4, left no path between them at all)."""
+    kinematics = ArmKinematics("right")
+    upright = upright_hand(kinematics)
+    start = np.array([4.128, -0.78, -0.567, 2.1, -1.481, -1.061, 1.468])
+    goal = np.array([4.217, -0.857, -0.772, 2.609, -1.414, -1.156, 0.932])
+    errors = [float(np.abs(upright.function(q)).max()) for q in (start, goal)]
+    assert 1e-4 < min(errors) and max(errors) < upright.tolerance
+    result = plan_goto(
+        start,
+        goal,
+        lambda q: True,
+        kinematics.lower,
+        kinematics.upper,
+        60.0,
+        seed=1,
+        constraint=upright,
+        max_evaluations=100_000,
+    )
+    assert result.success, result.reason
+    assert result.path is not None
+    assert max(float(np.abs(upright.function(q)).max()) for q in result.path) < upright.tolerance

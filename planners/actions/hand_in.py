@@ -261,8 +261,11 @@ def _pull_target(
 def carry_upright(
     arm: Arm, q_start: np.ndarray, target: np.ndarray, free: Free
 ) -> np.ndarray | None:
-    """GoTo with a grasped object kept upright (the hand's finger plane horizontal)."""
-    q_goal = arm.solve(target, free)
+    """GoTo with a grasped object kept upright (the hand's finger plane horizontal), to the
+    target's IK solution nearest ``q_start``: one on another branch (the planner's usual
+    choice is nearest the home pose) is rarely connected to it with the hand kept level."""
+    with arm.stats.timed("ik"):
+        q_goal = arm.kinematics.solve_ik(target, q_start, free)
     if q_goal is None:
         return None
     path, _ = arm.plan_path(q_start, q_goal, free, upright_hand(arm.kinematics))
