@@ -158,3 +158,34 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     assert searches == []
     monkeypatch.setattr(push_grasp, "_over_offsets", search)
     assert again == outcomes(context(), goals[1])
+
+
+def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_overlaps() -> None:
+    """`clearance._blockers` (one sample first, then the rest where the hand is still free)
+    against the plain definition: per hand pose, the first object by name with any sample
+    pose that the hand's cross-section overlaps."""
+    from planners.actions.clearance import OVERLAP, _blockers
+    from planners.hand2d import push_grasp_profile
+    from planners.push_simulation import overlaps
+
+    rng = np.random.default_rng(0)
+    pusher = push_grasp_profile(0.15).pusher
+    found = set()
+    for _ in range(100):
+        objects = []
+        for name, kind in (("a", "soda_can"), ("b", "poptart_box"), ("c", "large_box")):
+            centre = rng.uniform([-0.1, -0.3, -3.0], [0.5, 0.3, 3.0])
+            local = centre + rng.normal(0.0, [0.02, 0.02, 0.2], (30, 3))
+            objects.append((name, get_object(kind).footprint, local))
+        shifts = rng.uniform([-0.2, -0.2], [0.3, 0.2], (15, 2))
+        expected = []
+        for shift in shifts:
+            hits = [
+                name
+                for name, footprint, local in objects
+                if overlaps(footprint, pusher, local - [*shift, 0.0], OVERLAP).any()
+            ]
+            expected.append(hits[0] if hits else "")
+        assert _blockers(pusher, objects, shifts) == expected
+        found.update(expected)
+    assert found == {"", "a", "b", "c"}

@@ -48,23 +48,40 @@ def _blockers(
 ) -> list[str]:
     """For each of the hand's poses, ``shifts`` (M, 2) from the origin of the objects' frame
     (the hand turned as that frame), the first object by name one of whose sample poses its
-    cross-section overlaps, or "". All poses of one object are tested in one batch."""
-    x0, x1, y0, y1 = pusher.bounds
+    cross-section overlaps, or "". The poses of one object are tested in two batches: one
+    sample at every pose of the hand first (in clutter most hand poses overlap every sample
+    of a neighbour, and one decides it), then all samples where the hand is still free."""
     blockers = [""] * len(shifts)
     for name, footprint, local in objects:
-        r = footprint.bounding_radius
-        x = local[None, :, 0] - shifts[:, None, 0]
-        y = local[None, :, 1] - shifts[:, None, 1]
-        near = (x + r > x0) & (x - r < x1) & (y + r > y0) & (y - r < y1)
-        near_shift, near_sample = np.nonzero(near)
-        if not len(near_shift):
-            continue  # every sample's bounding circle is clear of the hand's bounding box
+        free = np.array([not b for b in blockers])
+        for batch in (local[:1], local[1:]):
+            open_ = np.flatnonzero(free)
+            if not len(open_) or not len(batch):
+                break
+            hit = _overlapped(pusher, footprint, batch, shifts[open_])
+            for k in open_[hit]:
+                blockers[k] = name
+            free[open_[hit]] = False
+    return blockers
+
+
+def _overlapped(
+    pusher: Pusher, footprint: Footprint, local: np.ndarray, shifts: np.ndarray
+) -> np.ndarray:
+    """Whether the hand at each of ``shifts`` (M, 2) overlaps the object at any of ``local``
+    (N, 3): (M,). All pairs near the hand's bounding box are tested in one batch."""
+    x0, x1, y0, y1 = pusher.bounds
+    r = footprint.bounding_radius
+    x = local[None, :, 0] - shifts[:, None, 0]
+    y = local[None, :, 1] - shifts[:, None, 1]
+    near = (x + r > x0) & (x - r < x1) & (y + r > y0) & (y - r < y1)
+    near_shift, near_sample = np.nonzero(near)
+    hit = np.zeros(len(shifts), dtype=bool)
+    if len(near_shift):  # else every sample's bounding circle is clear of the hand's box
         poses = local[near_sample].copy()
         poses[:, :2] -= shifts[near_shift]
-        hit = overlaps(footprint, pusher, poses, OVERLAP)
-        for k in np.unique(near_shift[hit]):
-            blockers[k] = blockers[k] or name
-    return blockers
+        hit[near_shift[overlaps(footprint, pusher, poses, OVERLAP)]] = True
+    return hit
 
 
 def _near_band(
