@@ -71,6 +71,8 @@ class PlanningContext:
         #: the failures met on the way (`push_grasp._over_offsets_once`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
+        #: Upright carries out of the shelf that found no path (`hand_in.FAILED_CARRIES`).
+        self.failed_carries = 0
 
     def check_budget(self) -> None:
         self.budget.check()

@@ -5,7 +5,6 @@ grasps share these; pick-and-place (`planners.actions.pick_and_place`) has its o
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -43,8 +42,11 @@ PULL_TURNS = tuple(math.radians(d) for d in (0, 15, -15, 30, -30, 45, -45, 60, -
 """Turns of the hand about the grasped object while it is pulled out of the shelf, fewest
 first: a level hand pointing straight ahead cannot reach the front strip (its wrist would
 need |j6| > 1.56; docs/world.md), so an object grasped from straight in front leaves turned."""
-MAX_CARRIES = 2
-"""Upright carries (GoTo) tried when no straight pull reaches the strip."""
+FAILED_CARRIES = 3
+"""Upright carries (GoTo on the constraint manifold, up to `goto_evaluations` each, about a
+second) that may fail in one plan before PickUp stops trying them: where straight pulls fail
+for one candidate they tend to fail for the next, and the carries then eat the budget (Fig. 16:
+17 of 30 s)."""
 
 
 @dataclass(frozen=True)
@@ -215,18 +217,18 @@ def _retrieve(
     if raise_ is None:
         return None, nothing
     targets = [_pull_target(ctx, end_xy, heading, z, in_hand, turn) for turn in PULL_TURNS]
-    # Straight pulls first (a Cartesian line, milliseconds), then the upright carry (GoTo on
-    # the constraint manifold, up to the budget) to the targets that have an IK solution.
+    # Straight pulls first (a Cartesian line, milliseconds), then the upright carry to the
+    # first target that has an IK solution.
     pull = None
     for target in targets:
         pull = arm.straight(raise_[-1], target, free)
         if pull is not None:
             break
-    if pull is None:
-        reachable = (target for target in targets if arm.solve(target, free) is not None)
-        for target in itertools.islice(reachable, MAX_CARRIES):
-            pull = carry_upright(arm, raise_[-1], target, free)
-            if pull is not None:
+    if pull is None and ctx.failed_carries < FAILED_CARRIES:
+        for target in targets:
+            if arm.solve(target, free) is not None:
+                pull = carry_upright(arm, raise_[-1], target, free)
+                ctx.failed_carries += pull is None
                 break
     if pull is None:
         return None, nothing
