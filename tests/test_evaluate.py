@@ -54,6 +54,7 @@ def test_a_trained_agent_and_a_planner_on_the_same_episodes(
     report = json.loads((tmp_path / "eval.json").read_text())
     assert report["env"] == TRAIN_ENV and report["episodes"] == 2 and report["seed"] == 3
     assert report["scene_keywords"] == EVAL_SCENES  # taken from the trained run
+    assert report["agent_keywords"] == {"planner:pg": {}, str(trained): {"max_episode_steps": 20}}
     records = report["records"]
     assert [(r["agent"], r["episode"], r["seed"]) for r in records] == [
         ("planner:pg", 0, 3),
@@ -80,7 +81,8 @@ def test_a_trained_agent_and_a_planner_on_the_same_episodes(
     table = (tmp_path / "eval.md").read_text()
     assert "| agent | acts in | episodes | success rate |" in table
     assert "| planner:pg | ClutterRetrieve-v0 | 2 | 1.0 |" in table
-    assert f"| {trained} | {TRAIN_ENV} | 2 | 0.0 | 20.0 |" in table
+    # The agent's own keywords of its variant stand beside it.
+    assert f"| {trained} | {TRAIN_ENV} max_episode_steps=20 | 2 | 0.0 | 20.0 |" in table
 
     # Again: every episode comes from the log, the report is the same.
     code, _, err = run(evaluate_argv(tmp_path, "planner:pg", str(trained)), capsys)

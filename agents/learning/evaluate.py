@@ -248,6 +248,11 @@ def run_evaluation(
         "seed": first.seed if first else None,
         "scene_keywords": _scene_part(first.env_kwargs) if first else {},
         "agents": [a.label for a in agents],
+        # Each agent's own keywords of the variant it acts in (a lift agent's grasped_start).
+        "agent_keywords": {
+            j.agent.label: {k: v for k, v in j.env_kwargs.items() if k not in SCENE_KEYWORDS}
+            for j in jobs
+        },
         "records": run.records,
         "summary": summarize(agents, run.records),
     }
@@ -304,10 +309,13 @@ def report_markdown(report: dict[str, Any]) -> str:
         "mean wall time [s]",
         "crashed",
     )
+    own = report["agent_keywords"]
     rows = [
         (
             label,
-            cell["acts_in"],
+            " ".join(
+                [cell["acts_in"], *(f"{k}={v}" for k, v in sorted(own.get(label, {}).items()))]
+            ),
             cell["episodes"],
             cell["success_rate"],
             cell["mean_length"],
