@@ -156,6 +156,7 @@ def test_suites_hold_the_papers_cases() -> None:
     assert fig15.planners == ("pushing", "pick-and-place")
     assert {c.label: c.noise for c in fig15.cases} == {
         "fig3_can_box_dumbbell": "sigma2",
+        "fig15_can_box_two_graspables": "sigma2",
         "fig16_shelf_can_behind_box": "sigma2",
         "fig2_high_uncertainty": "fig2",
         "can_behind_poptarts": "sigma2",

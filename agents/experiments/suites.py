@@ -26,6 +26,7 @@ PERTURBED_VARIANTS = 10
 layout rather than the luck of one pose."""
 FIGURE_SCENES = (
     "figures/fig3_can_box_dumbbell",
+    "figures/fig15_can_box_two_graspables",
     "figures/fig16_shelf_can_behind_box",
     "figures/fig2_high_uncertainty",
     "can_behind_poptarts",
