@@ -376,3 +376,26 @@ def test_paper_suite_files_are_reproducible(tmp_path: Path) -> None:
 def test_paper_suite_scenes_can_change_noise() -> None:
     scene = copy.deepcopy(paper_suite("high")[0])
     assert dataclasses.replace(scene, noise="sigma4").noise_sigma == NOISE_LEVELS["sigma4"]
+
+
+FIGURES_OUTSIDE_WORKSPACE = {("fig16_shelf_can_behind_box", "red_can")}
+"""Placements a figure needs outside its surface's workspace, each said in its description: the
+can behind a 0.26 m box cannot stand inside the shelf's (0.40 m deep) workspace."""
+
+
+@pytest.mark.parametrize(
+    "path", sorted((scene_module.SCENES_DIR / "figures").glob("*.json")), ids=lambda p: p.stem
+)
+def test_figure_scenes_say_which_figure_they_follow_and_stay_in_the_workspace(path: Path) -> None:
+    scene = load_scene(path)
+    figure = path.stem.split("_")[0].removeprefix("fig")
+    assert f"Fig. {figure}" in scene.description or f"Figs. {figure}" in scene.description
+    (wx0, wx1), (wy0, wy1) = get_surface(scene.surface).workspace
+    outside = {
+        (path.stem, o.name)
+        for o in scene.objects
+        if not (wx0 <= o.pose[0] <= wx1 and wy0 <= o.pose[1] <= wy1)
+    }
+    assert outside <= FIGURES_OUTSIDE_WORKSPACE
+    if outside:
+        assert "workspace" in scene.description
