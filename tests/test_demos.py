@@ -92,6 +92,19 @@ def test_save_and_load_keep_each_demos_start(tmp_path: Path) -> None:
     assert meta["starts"] == {"ready": 1, "grasped": 1, "grasp failed": 0}
 
 
+def test_demos_recorded_before_starts_were_kept_all_began_ready(tmp_path: Path) -> None:
+    made = [Demo(k, np.zeros((2, 5), np.float32), True, "", "ready") for k in range(2)]
+    save_demos(tmp_path, made, {})
+    with np.load(tmp_path / "demos.npz") as data:
+        older = {key: data[key] for key in data.files if key != "starts"}
+    np.savez_compressed(tmp_path / "demos.npz", **older)
+    assert [d.start for d in load_demos(tmp_path)[0]] == ["ready", "ready"]
+    del older["actions"]
+    np.savez_compressed(tmp_path / "demos.npz", **older)
+    with pytest.raises(ValueError, match=r"^demos: .*demos\.npz has no actions; record"):
+        load_demos(tmp_path)
+
+
 def test_grasped_start_is_refused_for_an_env_without_it(tmp_path: Path) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "agents.cli", "demos", "--env", "ClutterRetrieveEE-v0"]

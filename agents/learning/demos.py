@@ -357,8 +357,15 @@ def load_demos(directory: Path) -> tuple[list[Demo], dict[str, Any]]:
     meta = json.loads(meta_path.read_text())
     failures = meta.get("failures", {})
     with np.load(data_path) as data:
+        missing = [key for key in ("actions", "lengths", "seeds", "success") if key not in data]
+        if missing:
+            raise ValueError(
+                f"demos: {data_path} has no {', '.join(missing)}; record the demos again "
+                "with clutter-gym demos"
+            )
         bounds = np.concatenate([[0], np.cumsum(data["lengths"])])
-        starts = data["starts"]
+        # Recordings older than the lift stage keep no starts: all began at the ready pose.
+        starts = data["starts"] if "starts" in data else np.full(len(data["seeds"]), "ready")
         demos = [
             Demo(
                 int(seed),
