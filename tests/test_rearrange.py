@@ -43,7 +43,9 @@ def figure_scene(name: str) -> list[ObjectBelief]:
     return [belief(o.name, o.kind, o.pose) for o in scene.objects]
 
 
-def plan(beliefs: list[ObjectBelief], goal: str = "can", **settings: float) -> Plan:
+def plan(
+    beliefs: list[ObjectBelief], goal: str = "can", planner: str = "pushing", **settings: float
+) -> Plan:
     # A budget far above the few seconds these plans take: the search is deterministic for a
     # seed unless the wall-clock budget cuts it, which a loaded CI machine must not do.
     settings.setdefault("time_budget", 120.0)
@@ -53,6 +55,7 @@ def plan(beliefs: list[ObjectBelief], goal: str = "can", **settings: float) -> P
         goal,
         hm.RIGHT_ARM_HOME,
         PlannerSettings(**settings),  # type: ignore[arg-type]
+        planner=planner,
     )
 
 
@@ -139,9 +142,7 @@ def test_fig15_pushing_sweeps_the_box_where_pick_and_place_moves_two_objects() -
     """
     beliefs = figure_scene("fig15_can_box_two_graspables")
     pushing = plan(beliefs, "red_can", time_budget=20.0)
-    placing = plan_retrieval(
-        TABLE, beliefs, "red_can", hm.RIGHT_ARM_HOME, PlannerSettings(), planner="pick-and-place"
-    )
+    placing = plan(beliefs, "red_can", "pick-and-place", time_budget=20.0)
     assert pushing.success and placing.success
     assert pushing.objects_moved == ["big_box"]
     assert sorted(placing.objects_moved) == ["juice", "poptarts"]
