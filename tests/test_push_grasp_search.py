@@ -102,6 +102,46 @@ def test_a_sweep_is_simulated_once_for_every_goal(monkeypatch: pytest.MonkeyPatc
     assert len(ctx.sweeps) == 1
 
 
+def test_a_sweep_the_detection_takes_into_avoid_is_refused_before_all_samples_run(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """nu_o holds the detected pose's path, so when the pilot (the detection alone) already
+    sweeps into avoidVol the sweep fails, without simulating the other samples; with avoidVol
+    out of the way the same sweep is simulated in full."""
+    ctx = _box_context()
+    plan = sweep_action._plan_sweep(ctx, "box", math.pi / 2, -1)
+    frame, in_frame = sweep_action._frame_at(ctx, "box", plan, 0.5)
+    ngr = Volume.of_box("ngr", np.array([0.75, -0.20, TABLE.top_z + 0.1]), (0.2, 0.2, 0.2), 0.0)
+    goal = AwayFrom(ngr)
+    pilot = sweep_action._sweep_until(
+        ctx, "box", goal, plan.region, frame, in_frame[:1], 0.55, sweep_action.PILOT_STEP
+    )
+    assert pilot is not None
+    # A post on the detection's path, halfway along its sweep.
+    path = pilot[1].reshape(-1, 3)
+    midway = path[len(path) // 2]
+    wall = Volume.of_box(
+        "wall", np.array([midway[0], midway[1], TABLE.top_z + 0.1]), (0.04, 0.04, 0.2), 0.0
+    )
+    assert Volume.of_object("box", ctx.beliefs["box"].spec, path, TABLE.top_z).intersects(wall)
+    simulated = []
+    until = sweep_action._sweep_until
+    monkeypatch.setattr(
+        sweep_action,
+        "_sweep_until",
+        lambda c, n, g, r, f, samples, *a, **k: (
+            simulated.append(len(samples)) or until(c, n, g, r, f, samples, *a, **k)
+        ),
+    )
+    refused = sweep_action._simulate(ctx, "box", goal, plan.region, frame, in_frame, wall)
+    assert refused == sweep_action.PILOT_INTO_AVOID
+    assert simulated == [1]
+    simulated.clear()
+    swept = sweep_action._simulate(ctx, "box", goal, plan.region, frame, in_frame, Volume())
+    assert not isinstance(swept, str)
+    assert simulated == [1, len(in_frame)]
+
+
 def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
     """§2.2.1 pushes "as low as possible": the push height first, the map's next height only
     where the map rules the lowest out (close in front of the shoulder, the forearm meets the

@@ -37,6 +37,7 @@ PILOT_STEP = 0.01  # m: simulation step of the one-sample pilot of a sweep
 SWEEP_CHUNK = 0.06  # m of sweep simulated before checking whether the object has reached G
 SWEEP_RETREAT = 0.02  # m the hand backs away along the sweep before rising
 _NOT_FAR_ENOUGH = "no sweep up to {} m ends {}"
+PILOT_INTO_AVOID = "the detected pose sweeps into avoidVol"
 EXACT_STRIDE = 4
 """Steps of nu_o between the first exact goal tests of a sweep's first guess."""
 
@@ -114,10 +115,9 @@ def _sweep_at(
             continue
         frame, in_frame, placed = placement  # the plan at the placement's height
         with ctx.stats.timed("nu"):
-            swept = _simulate(ctx, name, goal, placed.region, frame, in_frame)
-        if swept is None:
-            why = _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe())
-            yield Failure(name, ACTION, why)
+            swept = _simulate(ctx, name, goal, placed.region, frame, in_frame, avoid)
+        if isinstance(swept, str):
+            yield Failure(name, ACTION, swept)
             continue
         distance, nu = swept
         start_xy = np.asarray(frame.origin)
@@ -294,17 +294,25 @@ def _simulate(
     region: SweepRegion,
     frame: Frame2D,
     in_frame: np.ndarray,
-) -> tuple[float, np.ndarray] | None:
-    """How far to sweep and nu_o: a pilot with the detected pose alone (a thirtieth of the
-    work) says whether and roughly where the sweep reaches G; only then are all samples
-    simulated, tested for G from a chunk before there on, as far as the sweep may go (the
-    samples spread as they turn, and the last of them may need several chunks more)."""
+    avoid: Volume,
+) -> tuple[float, np.ndarray] | str:
+    """How far to sweep and nu_o, or why not: a pilot with the detected pose alone (a
+    thirtieth of the work) says whether and roughly where the sweep reaches G, and whether the
+    detected pose already sweeps into avoidVol (nu_o holds its path, so the sweep would fail
+    there after simulating every sample); only then are all samples simulated, tested for G
+    from a chunk before there on, as far as the sweep may go (the samples spread as they turn,
+    and the last of them may need several chunks more)."""
     # No sweep longer than the region holds every sample can pass: simulate no further.
     limit = min(ctx.settings.sweep_max, region.holds_until(in_frame))
+    not_far_enough = _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe())
     pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
     if pilot is None:
-        return None
-    return _sweep_until(
+        return not_far_enough
+    spec = ctx.beliefs[name].spec
+    path = Volume.of_object(name, spec, pilot[1].reshape(-1, 3), ctx.surface.top_z)
+    if path.intersects(avoid):
+        return PILOT_INTO_AVOID
+    swept = _sweep_until(
         ctx,
         name,
         goal,
@@ -314,6 +322,7 @@ def _simulate(
         limit,
         check_from=pilot[0] - SWEEP_CHUNK,
     )
+    return not_far_enough if swept is None else swept
 
 
 def _sweep_motion(
