@@ -21,6 +21,7 @@ from planners.uncertainty import ObjectBelief
 
 if TYPE_CHECKING:
     from planners.actions.hand_in import HandIn
+    from planners.actions.push_grasp import PlannedPush
     from planners.actions.results import Failure
     from planners.actions.sweep import SweepEvolution
 
@@ -70,6 +71,13 @@ class PlanningContext:
         #: Push-grasp hand motions by object, action, heading, aperture and avoidVol, with
         #: the failures met on the way (`push_grasp._over_offsets_once`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}
+        #: Push-grasps by object, heading and aperture, one per lateral offset (None where
+        #: the capture region misses a sample): `push_grasp._plan_push`.
+        self.push_plans: dict[tuple[str, float, float], list[PlannedPush | None]] = {}
+        #: Push-grasp hand motions (object, heading, aperture, offset) that an object of
+        #: avoidVol blocked, with (reason, that object): they fail again under every avoidVol
+        #: that holds it (`push_grasp._blocked_before`), whatever else it holds.
+        self.blocked_hands: dict[tuple[str, float, float, float], tuple[str, str]] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
         #: Upright carries out of the shelf that found no path (`hand_in.FAILED_CARRIES`).
         self.failed_carries = 0

@@ -176,33 +176,60 @@ def _over_offsets(
     if not len(offsets):
         yield Failure(name, action, MISSES_SAMPLES)
         return None
-    with ctx.stats.timed("capture"):
-        pushes = [_plan_push(ctx, name, heading, aperture, float(o)) for o in offsets]
-    captured = [p for p in pushes if p is not None]
-    ends = np.array([p.end for p in captured]).reshape(-1, 2)
+    pushes = ctx.push_plans.get((name, heading, aperture))
+    if pushes is None:  # the samples and the region alone decide them: once per plan
+        with ctx.stats.timed("capture"):
+            pushes = [_plan_push(ctx, name, heading, aperture, float(o)) for o in offsets]
+        ctx.push_plans[(name, heading, aperture)] = pushes
+    # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
+    # planar tests behind such failures see that object alone.
+    labels = avoid.labels
+    known = [None if p is None else _blocked_before(ctx, name, p, labels) for p in pushes]
+    open_ = [p for p, k in zip(pushes, known, strict=True) if p is not None and k is None]
+    ends = np.array([p.end for p in open_]).reshape(-1, 2)
     z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
     pusher = push_grasp_profile(aperture).pusher
     blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
-    for push in pushes:
+    for push, blocked in zip(pushes, known, strict=True):
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        blocker = "" if push is None else next(blockers)
         if push is None:
             outcome: tuple[HandIn, dict[str, float]] | Failure = Failure(
                 name, action, MISSES_SAMPLES
             )
-        elif blocker:
-            outcome = Failure(name, action, f"the hand overlaps {blocker} where it stops", blocker)
+        elif blocked is not None:
+            outcome = Failure(name, action, *blocked)
         else:
-            outcome = _push_at(ctx, arm, name, avoid, action, push)
+            blocker = next(blockers)
+            if blocker:
+                why = f"the hand overlaps {blocker} where it stops"
+                outcome = Failure(name, action, why, blocker)
+            else:
+                outcome = _push_at(ctx, arm, name, avoid, action, push)
+            if isinstance(outcome, Failure) and outcome.blocker:
+                ctx.blocked_hands[_hand_key(name, push)] = (outcome.reason, outcome.blocker)
         if not isinstance(outcome, Failure):
             return outcome
         yield outcome
     return None
 
 
+def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
+    return (name, push.heading, push.aperture, push.offset)
+
+
+def _blocked_before(
+    ctx: PlanningContext, name: str, push: PlannedPush, avoid: frozenset[str]
+) -> tuple[str, str] | None:
+    """(reason, blocker) of an earlier failure of this hand motion that named an object of
+    avoidVol (its labels, ``avoid``): the hand's cross-section overlapped that object's
+    samples where it stops or on its way (`clearance`), which no other object can undo."""
+    blocked = ctx.blocked_hands.get(_hand_key(name, push))
+    return blocked if blocked is not None and blocked[1] in avoid else None
+
+
 @dataclass(frozen=True)
-class _Push:
+class PlannedPush:
     """A push-grasp's geometry once the capture region holds every sample: hand_base from
     ``start`` to ``end`` along ``heading``, the samples in the hand's frame at the start."""
 
@@ -217,7 +244,7 @@ class _Push:
 
 def _plan_push(
     ctx: PlanningContext, name: str, heading: float, aperture: float, offset: float
-) -> _Push | None:
+) -> PlannedPush | None:
     """The hand pushing in along ``heading``, offset sideways, until the capture region says
     every sample is in the hand; None when it misses some."""
     belief = ctx.beliefs[name]
@@ -236,11 +263,12 @@ def _plan_push(
     if not inside.all():
         return None
     distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
-    return _Push(heading, aperture, offset, start_xy, start_xy + distance * v, distance, in_hand)
+    end = start_xy + distance * v
+    return PlannedPush(heading, aperture, offset, start_xy, end, distance, in_hand)
 
 
 def _push_at(
-    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, action: str, push: _Push
+    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, action: str, push: PlannedPush
 ) -> tuple[HandIn, dict[str, float]] | Failure:
     """The push's motion, nu_o and parameters, or why the arm cannot make it."""
     region = ctx.push_region(ctx.beliefs[name].spec.footprint, push.aperture)
