@@ -200,6 +200,63 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     assert again == outcomes(context(), goals[1])
 
 
+def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The one-move passes search the goal's push-grasps under shrinking avoidVols: a hand
+    pose that the bottle blocked (planar overlap) while the bottle and the box were avoided is
+    not tested again when the bottle alone is, and the search ends as a fresh one does."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    clearance = importlib.import_module("planners.actions.clearance")
+
+    def context() -> PlanningContext:
+        rng = np.random.default_rng(0)
+        beliefs = {}
+        for name, kind, pose in (
+            ("can", "soda_can", (0.72, -0.25, 0.0)),
+            ("bottle", "juice_bottle", (0.72, -0.14, 0.0)),
+            ("box", "poptart_box", (0.60, -0.34, 0.4)),
+        ):
+            samples = sample_poses(pose, (0.005, 0.034), 30, rng)
+            beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
+        settings = PlannerSettings(time_budget=600.0)
+        return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
+
+    def outcomes(ctx: PlanningContext, avoided: list[str]) -> list[object]:
+        arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+        avoid = ctx.objects_volume(avoided)
+        found = push_grasp.push_grasp(ctx, arm, "can", away, avoid)
+        return [getattr(o, "reason", None) or sorted(o.details.items()) for o in found]
+
+    # Pushed out of an NGR (no TSR draws, whose random stream a fresh context restarts).
+    centre = np.array([0.72, -0.25, TABLE.top_z + 0.1])
+    away = AwayFrom(Volume.of_box("ngr", centre, (0.1, 0.1, 0.2), 0.0))
+    ctx = context()
+    outcomes(ctx, ["bottle", "box"])
+    blocked = {k for k, (_, by) in ctx.blocked_hands.items() if by == "bottle"}
+    assert blocked
+    tested: set[tuple[float, ...]] = set()
+    stops = clearance.stops_overlapping
+
+    def counted(c, pusher, ends, heading, avoid, z):
+        tested.update((heading, *np.round(e, 9)) for e in ends)
+        return stops(c, pusher, ends, heading, avoid, z)
+
+    monkeypatch.setattr(push_grasp, "stops_overlapping", counted)
+    again = outcomes(ctx, ["bottle"])
+    # The bottle blocks hands again (it is still avoided), and none of them was tested anew.
+    assert any(o == "the hand overlaps bottle where it stops" for o in again)
+    blocked_ends = {
+        (p.heading, *np.round(p.end, 9))
+        for key in blocked
+        for p in ctx.push_plans[key[:3]]
+        if p is not None and p.offset == key[3]
+    }
+    assert len(blocked_ends) == len(blocked) and not blocked_ends & tested
+    monkeypatch.setattr(push_grasp, "stops_overlapping", stops)
+    assert again == outcomes(context(), ["bottle"])
+
+
 def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_overlaps() -> None:
     """`clearance._blockers` (one sample first, then the rest where the hand is still free)
     against the plain definition: per hand pose, the first object by name with any sample
