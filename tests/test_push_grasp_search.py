@@ -156,6 +156,17 @@ def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
     assert arm.push_heights([in_workspace, near_shoulder]) == [HEIGHTS[1]]
 
 
+def _scene_context(*objects: tuple[str, str, tuple[float, float, float]]) -> PlanningContext:
+    """A fresh planning context for (name, kind, pose) objects at sigma2, 30 samples each."""
+    rng = np.random.default_rng(0)
+    beliefs = {}
+    for name, kind, pose in objects:
+        samples = sample_poses(pose, (0.005, 0.034), 30, rng)
+        beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
+    settings = PlannerSettings(time_budget=600.0)  # far above the tests' needs
+    return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
+
+
 def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -165,16 +176,9 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     push_grasp = importlib.import_module("planners.actions.push_grasp")
 
     def context() -> PlanningContext:
-        rng = np.random.default_rng(0)
-        beliefs = {}
-        for name, kind, pose in (
-            ("can", "soda_can", (0.70, -0.25, 0.0)),
-            ("bottle", "juice_bottle", (0.70, -0.14, 0.0)),
-        ):
-            samples = sample_poses(pose, (0.005, 0.034), 30, rng)
-            beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
-        settings = PlannerSettings(time_budget=600.0)
-        return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
+        return _scene_context(
+            ("can", "soda_can", (0.70, -0.25, 0.0)), ("bottle", "juice_bottle", (0.70, -0.14, 0.0))
+        )
 
     centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
     goals = [AwayFrom(Volume.of_box("ngr", centre, (s, s, 0.2), 0.0)) for s in (0.1, 0.2)]
@@ -210,17 +214,11 @@ def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided
     clearance = importlib.import_module("planners.actions.clearance")
 
     def context() -> PlanningContext:
-        rng = np.random.default_rng(0)
-        beliefs = {}
-        for name, kind, pose in (
+        return _scene_context(
             ("can", "soda_can", (0.72, -0.25, 0.0)),
             ("bottle", "juice_bottle", (0.72, -0.14, 0.0)),
             ("box", "poptart_box", (0.60, -0.34, 0.4)),
-        ):
-            samples = sample_poses(pose, (0.005, 0.034), 30, rng)
-            beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
-        settings = PlannerSettings(time_budget=600.0)
-        return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
+        )
 
     def outcomes(ctx: PlanningContext, avoided: list[str]) -> list[object]:
         arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
