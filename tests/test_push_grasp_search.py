@@ -167,6 +167,31 @@ def _scene_context(*objects: tuple[str, str, tuple[float, float, float]]) -> Pla
     return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
 
 
+@pytest.mark.parametrize("yaw", [0.0, 1.446, 2.08])
+def test_a_box_is_swept_square_to_its_faces_a_can_along_the_grid(yaw: float) -> None:
+    """Sweep directions every `sweep_step_deg`, and for a box also square to each detected
+    face (a box turned off the grid would otherwise meet the hand's side at a corner)."""
+    from planners.actions.heuristics import sweep_directions
+
+    ctx = _scene_context(
+        ("box", "large_box", (0.70, 0.0, yaw)), ("can", "soda_can", (0.7, -0.3, 0))
+    )
+    shoulder = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget).heading_origin
+    step = math.radians(ctx.settings.sweep_step_deg)
+
+    def angles(name: str) -> set[float]:
+        return {round(a % (2 * math.pi), 9) for a, _ in sweep_directions(ctx, shoulder, name)}
+
+    def on_grid(a: float) -> bool:
+        return abs(math.remainder(a, step)) < 1e-6
+
+    can, box = angles("can"), angles("box")
+    assert can and all(on_grid(a) for a in can)
+    squares = {round((yaw + k * math.pi / 2) % (2 * math.pi), 9) for k in range(4)}
+    assert {a for a in box if not on_grid(a)} == {a for a in squares if not on_grid(a)}
+    assert len(squares & box) >= 2  # the hand reaches at least two of the faces
+
+
 def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

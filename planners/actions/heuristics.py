@@ -85,7 +85,10 @@ def sweep_directions(
     ctx: PlanningContext, shoulder: np.ndarray, name: str
 ) -> list[tuple[float, int]]:
     """(sweep direction, handedness) pairs whose hand approach is within reach, ordered by the
-    objects the swept object would run into, then by how natural the approach is."""
+    objects the swept object would run into, then by how natural the approach is. A box is
+    also swept square to its detected faces: the hand's side then meets a face flat, where the
+    sweep capture region holds the box longest, and a box turned off the direction grid would
+    otherwise meet the hand at a corner."""
     belief = ctx.beliefs[name]
     centre = belief.samples[0, :2]
     base = base_heading(shoulder, centre)
@@ -93,8 +96,13 @@ def sweep_directions(
     limit = math.radians(ctx.settings.sweep_max_heading_deg) + 1e-9
     scored = []
     step = math.radians(ctx.settings.sweep_step_deg)
-    for k in range(round(2 * math.pi / step)):
-        angle = k * step
+    angles = [k * step for k in range(round(2 * math.pi / step))]
+    if belief.spec.footprint.shape == "box":
+        for k in range(4):
+            square = (belief.detected[2] + k * math.pi / 2) % (2 * math.pi)
+            if all(abs(math.remainder(square - a, 2 * math.pi)) > 1e-6 for a in angles):
+                angles.append(square)
+    for angle in angles:
         for handedness in (1, -1):
             approach = angle + handedness * math.pi / 2
             off = abs(math.remainder(approach - base, 2 * math.pi))
