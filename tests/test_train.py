@@ -88,6 +88,7 @@ BAD_ENTRIES: list[tuple[str, dict[str, Any], tuple[str, ...]]] = [
     ("bad value", {**TINY_PPO, "batch_size": "big"}, ("ppo cannot use this entry",)),
     ("env keyword", {**TINY_PPO, "env_kwargs": {"level": "extreme"}}, ("env_kwargs", "extreme")),
     ("budget", {**TINY_PPO, "n_timesteps": -5}, ("n_timesteps", "must be >= 1")),
+    ("cloning", {**TINY_PPO, "clone_steps": 0}, ("clone_steps", "must be >= 1")),
     ("base missing", {**TINY_PPO, "base": "nope.yml"}, ("base ", "nope.yml", "cannot be read")),
     ("base is itself", {**TINY_PPO, "base": "tiny.yml"}, ("base: tiny.yml is this entry",)),
     ("base's key", {**TINY_PPO, "base": "bad.yml"}, ("bad.yml", "unknown key 'n_step'")),
@@ -625,11 +626,26 @@ def lone_can_demos(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]
 
 
 def test_demos_pre_fill_the_replay_buffer_of_an_off_policy_run(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], lone_can_demos: tuple[Path, int]
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    lone_can_demos: tuple[Path, int],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    """The demos fill the replay buffer, and the actor keeps cloning them by the entry's
+    ``clone_steps`` gradient steps per env step."""
+    from agents.learning import callbacks
+
+    kept: list[int] = []
+    keep = callbacks.KeepCloning.__init__
+
+    def recorded(self: Any, clone: Any, steps: int) -> None:
+        kept.append(steps)
+        keep(self, clone, steps)
+
+    monkeypatch.setattr(callbacks.KeepCloning, "__init__", recorded)
     directory, replayed = lone_can_demos
     assert replayed > 0
-    config = write_config(tmp_path / "sac.yml", TINY_SAC)
+    config = write_config(tmp_path / "sac.yml", {**TINY_SAC, "clone_steps": 3})
     out = tmp_path / "run"
     argv = train_argv(
         config, out, algo="sac", steps="64", eval_freq="64", eval_episodes="1", demos=str(directory)
@@ -642,6 +658,15 @@ def test_demos_pre_fill_the_replay_buffer_of_an_off_policy_run(
         assert pickle.load(handle).size() == replayed + 64
     settings = json.loads((out / "run.json").read_text())["settings"]
     assert settings["demos"] == str(directory.resolve())
+    assert kept == [3] and settings["hyperparams"]["clone_steps"] == 3
+
+
+def test_an_entry_without_clone_steps_records_none_so_older_runs_still_resume(
+    tmp_path: Path,
+) -> None:
+    config = write_config(tmp_path / "sac.yml", TINY_SAC)
+    hp = load_hyperparams("sac", TRAIN_ENV, config)
+    assert hp.clone_steps is None and "clone_steps" not in hp.as_dict()
 
 
 @pytest.mark.parametrize(

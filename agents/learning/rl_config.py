@@ -24,8 +24,9 @@ from typing import Any, NamedTuple
 ALGOS = ("ppo", "sac", "tqc")
 HYPERPARAMS = Path(__file__).resolve().parents[1] / "hyperparams"
 RL_EXTRA = "install the rl extra: pip install -e '.[rl]'"
-ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
-"""Keys of an entry that are not keywords of the algorithm (rl-baselines3-zoo's names)."""
+ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs", "clone_steps")
+"""Keys of an entry that are not keywords of the algorithm (rl-baselines3-zoo's names, and
+``clone_steps``: the gradient steps of behaviour cloning per env step of a --demos run)."""
 BASE = "base"
 """The key naming the file (a path relative to the one holding the entry) whose entry for the
 same env id this one overrides: its mappings merged key by key, any other value replaced."""
@@ -64,9 +65,12 @@ class Hyperparams:
     normalize: dict[str, Any] | None
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     algo_kwargs: dict[str, Any] = field(default_factory=dict)
+    clone_steps: int | None = None  # None: `agents.learning.train.CLONE_STEPS`
 
     def as_dict(self) -> dict[str, Any]:
-        """The entry as run.json records it."""
+        """The entry as run.json records it (``clone_steps`` only where the entry sets it, so
+        that the runs of entries without it still resume)."""
+        own = {} if self.clone_steps is None else {"clone_steps": self.clone_steps}
         return {
             "source": self.source,
             "policy": self.policy,
@@ -74,6 +78,7 @@ class Hyperparams:
             "n_envs": self.n_envs,
             "normalize": self.normalize,
             "env_kwargs": self.env_kwargs,
+            **own,
             **self.algo_kwargs,
         }
 
@@ -170,6 +175,7 @@ def load_hyperparams(algo: str, env_id: str, config: Path | None = None) -> Hype
         normalize=_normalize(entry.get("normalize", False), where, env_id),
         env_kwargs=_mapping(entry.get("env_kwargs", {}), where, env_id, "env_kwargs"),
         algo_kwargs=kwargs,
+        clone_steps=_count(entry.get("clone_steps"), where, env_id, "clone_steps"),
     )
     algorithm_kwargs(hp)  # names of schedules, activations and buffers are checked now
     return hp

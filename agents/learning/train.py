@@ -73,13 +73,13 @@ EVAL_SEED = 1_000_000
 RUN_FORMAT = "clutter-gym-train/1"
 JOBS_LOG = "train_jobs.jsonl"
 DRY_BUFFER = 1000
-BC_STEPS = 1000
-"""Gradient steps of behaviour cloning before a --demos run learns."""
-CLONE_STEPS = 5
-"""Gradient steps of behaviour cloning after each env step of a --demos run's learning."""
-"""Gradient steps of behaviour cloning (batches drawn from the demos) before a run with --demos
-learns."""
 """Replay buffer size when a config is checked by building its model (not the run's own)."""
+BC_STEPS = 1000
+"""Gradient steps of behaviour cloning (batches drawn from the demos) before a --demos run
+learns."""
+CLONE_STEPS = 5
+"""Gradient steps of behaviour cloning after each env step of a --demos run's learning, unless
+the config's entry sets ``clone_steps``."""
 VERSIONS = ("clutter-gym", "stable-baselines3", "sb3-contrib", "torch", "gymnasium", "numpy")
 
 
@@ -396,7 +396,8 @@ def _train(job: TrainJob, interrupt: FirstInterrupt) -> int:
                     f"actor cloned them (action error {error:.3f})",
                     file=sys.stderr,
                 )
-            extra.append(callbacks.KeepCloning(cloning, CLONE_STEPS))
+            keep = job.hyperparams.clone_steps or CLONE_STEPS
+            extra.append(callbacks.KeepCloning(cloning, keep))
         eval_env, episodes = _eval_env(job)  # after the model: its seeding comes first
         stack.callback(eval_env.close)
         bar = stack.enter_context(
