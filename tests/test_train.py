@@ -209,6 +209,23 @@ ClutterRetrieveEE-v0:
   replay_buffer_kwargs: {goal_selection_strategy: future, n_sampled_goal: 4, copy_info_dict: true}
   policy_kwargs: {net_arch: [256, 256], n_critics: 2}
 """,
+    "sac_grasp_clone10.yml": """
+ClutterRetrieveEEGrasp-v0:
+  policy: MultiInputPolicy
+  n_timesteps: 50000
+  n_envs: 1
+  env_kwargs: {level: none, goal_kind: soda_can, noise: sigma1}
+  clone_steps: 10
+  buffer_size: 50000
+  learning_starts: 1000
+  batch_size: 256
+  learning_rate: 0.001
+  gamma: 0.95
+  tau: 0.05
+  replay_buffer_class: HerReplayBuffer
+  replay_buffer_kwargs: {goal_selection_strategy: future, n_sampled_goal: 4, copy_info_dict: true}
+  policy_kwargs: {net_arch: [256, 256]}
+""",
 }
 
 
