@@ -309,3 +309,29 @@ def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_over
         assert _blockers(pusher, objects, shifts) == expected
         found.update(expected)
     assert found == {"", "a", "b", "c"}
+
+
+def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap() -> None:
+    """Pick-and-place's placement test skips objects whose samples are far away before it
+    measures any pair: over a grid of placements of a held can around two neighbours, its
+    answer is the exact overlap of the placed samples with every other object's samples."""
+    from planners.actions.pick_and_place import _meets_others
+
+    ctx = _scene_context(
+        ("can", "soda_can", (0.62, 0.0, 0.0)),
+        ("box", "large_box", (0.75, 0.15, 0.4)),
+        ("bottle", "juice_bottle", (0.70, -0.2, 0.0)),
+    )
+    spec = ctx.beliefs["can"].spec
+    others = ["bottle", "box"]
+    answers = []
+    for dx in np.arange(-0.1, 0.25, 0.025):
+        for dy in np.arange(-0.35, 0.35, 0.025):
+            placed = ctx.beliefs["can"].samples + np.array([dx, dy, 0.0])
+            exact = Volume.of_object("can", spec, placed, TABLE.top_z).intersects(
+                ctx.objects_volume(others)
+            )
+            assert _meets_others(ctx, "can", placed, others) == exact, (dx, dy)
+            answers.append(exact)
+    assert any(answers) and not all(answers)
+    assert ctx.stats.seconds["placement"] > 0

@@ -114,7 +114,9 @@ class Arm:
         ``target`` (4x4), or None. A horizontal hand the reachability map says no arm
         configuration reaches is refused at once, without IK (about half the IK solves of a
         cluttered scene fail)."""
-        if self._unreachable(target):
+        with self.stats.timed("reach"):
+            unreachable = self._unreachable(target)
+        if unreachable:
             self.stats.ik_skipped += 1
             return None
         with self.stats.timed("ik"):
@@ -132,12 +134,15 @@ class Arm:
         (hand_base xy, heading) poses: the map's heights at which it rules none of them out.
         Far out the forearm slopes down to the support and the lowest may be out of reach."""
         poses = list(poses)
-        return [
-            height
-            for height in HEIGHTS
-            if self.reach is None
-            or all(self.reach.may_reach(xy, heading, height) is not False for xy, heading in poses)
-        ]
+        with self.stats.timed("reach"):
+            return [
+                height
+                for height in HEIGHTS
+                if self.reach is None
+                or all(
+                    self.reach.may_reach(xy, heading, height) is not False for xy, heading in poses
+                )
+            ]
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""
