@@ -15,6 +15,7 @@ import pytest
 from clutter_gym.model import herb as hm
 from clutter_gym.model.arm_geometry import ArmGeometry
 from clutter_gym.model.collision import (
+    HAND_RIGID_LINKS,
     SELF_COLLISION_GROUPS,
     SURFACE_PADDING,
     CollisionChecker,
@@ -294,6 +295,41 @@ def test_a_hull_hit_is_confirmed_against_the_samples() -> None:
     at_sample = solve(kin, tcp_target(0.84, -0.45, TABLE.top_z + 0.08))
     assert exact.in_collision(at_sample) and hulled.in_collision(at_sample)
     assert hulled.touching_objects(at_sample) == {"can"}
+
+
+def test_a_hand_hit_is_a_hit_of_every_ik_solution_of_the_pose() -> None:
+    """`hand_checker` tests the links rigid with the TCP only: where it finds a hit (against the
+    surface or an object, hulls confirmed by the samples), the full check at every IK solution
+    of that TCP pose finds one too, and where the full check finds the hand clear it agrees."""
+    kin = ArmKinematics("right")
+    geometry = ArmGeometry()
+    assert {p.link for p in geometry.primitives} >= set(HAND_RIGID_LINKS)
+    samples = np.array([[0.80, -0.30, 0.0], [0.80, -0.20, 0.3]])
+    obstacles = Volume.of_object("box", OBJECTS["poptart_box"], samples, TABLE.top_z)
+    checker = CollisionChecker(
+        CollisionWorld.around(TABLE, obstacles, hulled=True), RobotCollision(kin, geometry)
+    )
+    hand_clear = checker.hand_checker(CLOSED)
+    rng = np.random.default_rng(7)
+    hand_hits = poses = 0
+    while poses < 40:
+        heading = rng.uniform(-0.8, 0.8)
+        target = tcp_target(
+            rng.uniform(0.62, 0.95),
+            rng.uniform(-0.45, -0.05),
+            TABLE.top_z + rng.uniform(0.0, 0.2),
+            (np.cos(heading), np.sin(heading)),
+        )
+        solutions = kin.ik_solutions(target)
+        if not len(solutions):
+            continue
+        poses += 1
+        clear = [hand_clear(q) for q in solutions[:: max(1, len(solutions) // 12)]]
+        assert len(set(clear)) == 1, "the hand stands alike in every solution"
+        if not clear[0]:
+            hand_hits += 1
+            assert all(checker.in_collision(q, CLOSED) for q in solutions[::5])
+    assert 5 <= hand_hits <= 35, hand_hits
 
 
 def test_convex_hull_contains_its_points_and_nothing_far() -> None:

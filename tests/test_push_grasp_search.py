@@ -335,3 +335,33 @@ def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap(
             answers.append(exact)
     assert any(answers) and not all(answers)
     assert ctx.stats.seconds["placement"] > 0
+
+
+def test_a_pose_whose_hand_meets_an_object_is_refused_after_one_check() -> None:
+    """`Arm.solve` tests the hand (rigid with the TCP) once before trying IK solutions: a pose
+    whose hand overlaps avoidVol costs one collision check, and every pose gets the answer the
+    solutions' own checks give."""
+    from clutter_gym.model.herb import HandCommand
+    from clutter_gym.model.reachability import hand_pose
+
+    ctx = _scene_context(("can", "soda_can", (0.75, -0.25, 0.0)))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    avoid = ctx.objects_volume(("can",))
+    free = arm.free_check(avoid, HandCommand(0.0, 0.0))
+    z = TABLE.top_z + PUSH_HEIGHT
+    at_can = hand_pose(np.array([0.75, -0.25]), 0.0, z)  # the palm where the can stands
+    before = ctx.stats.collision_checks
+    assert arm.solve(at_can, free) is None
+    assert ctx.stats.collision_checks - before == 1
+    solutions = arm.kinematics.ik_solutions(at_can)
+    assert len(solutions) and arm.kinematics.select(solutions, free) is None
+    reached = 0
+    for xy in ([0.62, 0.05], [0.55, -0.45], [0.70, 0.20], [0.60, -0.25]):
+        pose = hand_pose(np.array(xy), 0.0, z)
+        expected = arm.kinematics.select(arm.kinematics.ik_solutions(pose), free)
+        found = arm.solve(pose, free)
+        assert (found is None) == (expected is None)
+        if found is not None:
+            reached += 1
+            np.testing.assert_array_equal(found, expected)
+    assert reached >= 2

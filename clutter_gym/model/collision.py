@@ -37,6 +37,9 @@ _HAND_LINKS = ("hand_base", "f1_knuckle", "f2_knuckle") + tuple(
 #: chain neighbours always touch at their joints; the shoulder links (wam_base..wam3) cannot reach
 #: each other within the joint limits, nor can the wrist links and hand (wam5..hand), and the
 #: elbow (wam4) cannot reach the wrist or hand since j6 bends at most 90 degrees.
+HAND_RIGID_LINKS = ("wam7", *_HAND_LINKS)
+"""Links rigid with the TCP (the last wrist link and the hand): every IK solution of one TCP
+pose puts them in the same place, so one check of them speaks for all (`hand_checker`)."""
 SELF_COLLISION_GROUPS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
     (("wam_base", "wam1", "wam2", "wam3"), ("wam5", "wam6", "wam7", *_HAND_LINKS)),
     (("wam_base", "wam1", "wam2"), ("wam4",)),
@@ -422,6 +425,7 @@ class RobotCollision:
             )
 
         self._self_pairs = [(group(a), group(b)) for a, b in SELF_COLLISION_GROUPS]
+        self.hand_manager = group(HAND_RIGID_LINKS)
         self._placed: tuple[bytes, HandCommand] | None = None
 
     def place(self, q: np.ndarray, hand: HandCommand) -> None:
@@ -437,6 +441,7 @@ class RobotCollision:
         for a, b in self._self_pairs:
             a.update()
             b.update()
+        self.hand_manager.update()
         self._placed = key
 
     def self_collision(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> bool:
@@ -479,9 +484,34 @@ class CollisionChecker:
         return self_collision and self.robot.self_collision(q, hand)
 
     def _object_hit(
-        self, objects: fcl.DynamicAABBTreeCollisionManager, skip: frozenset[int]
+        self,
+        objects: fcl.DynamicAABBTreeCollisionManager,
+        skip: frozenset[int],
+        robot: fcl.DynamicAABBTreeCollisionManager | None = None,
     ) -> bool:
-        return bool(_collide(self.robot.manager, objects, _Query(skip)).hits)
+        links = self.robot.manager if robot is None else robot
+        return bool(_collide(links, objects, _Query(skip)).hits)
+
+    def hand_checker(self, hand: HandCommand = OPEN_HAND) -> Callable[[np.ndarray], bool]:
+        """Whether the links rigid with the TCP (`HAND_RIGID_LINKS`) at q are clear of the
+        surface and the objects. They stand alike in every IK solution of one TCP pose, so a
+        hit at one solution refuses all of them: a failing IK then costs one check, not one
+        per solution tried (`ArmKinematics.select` tries up to 64)."""
+
+        def clear(q: np.ndarray) -> bool:
+            self.robot.place(q, hand)
+            links = self.robot.hand_manager
+            if _collide(links, self.world.surface_manager, _Query()).hits:
+                return False
+            return not (
+                self._object_hit(self.world.object_manager, frozenset(), links)
+                and (
+                    self.world.exact_manager is None
+                    or self._object_hit(self.world.exact_manager, frozenset(), links)
+                )
+            )
+
+        return clear
 
     def touching_objects(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> set[str]:
         """Names of the objects the arm penetrates at q (FindPenetrated)."""

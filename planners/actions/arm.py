@@ -42,6 +42,25 @@ IKSolver = Callable[[np.ndarray, Free], np.ndarray | None]
 """An IK solver: a configuration putting the TCP at a pose (4x4) that ``accept`` takes, or None."""
 
 
+class ArmCheck:
+    """The counted ``accept`` of the arm's IK and motions (`Arm.free_check`): the arm at q with
+    a hand command clear of the surface, itself and the obstacles. `hand_clear` checks only the
+    links rigid with the TCP, which every IK solution of a pose puts in the same place."""
+
+    def __init__(self, checker: CollisionChecker, hand: HandCommand, stats: PlanStats) -> None:
+        self._free = checker.checker(hand)
+        self._hand = checker.hand_checker(hand)
+        self._stats = stats
+
+    def __call__(self, q: np.ndarray) -> bool:
+        self._stats.collision_checks += 1
+        return self._free(q)
+
+    def hand_clear(self, q: np.ndarray) -> bool:
+        self._stats.collision_checks += 1
+        return self._hand(q)
+
+
 class Arm:
     """The right arm's kinematics and collision model, with the plan's budget and counters."""
 
@@ -79,13 +98,7 @@ class Arm:
         hull first, the samples themselves only where a hull is hit; with ``exact`` the samples
         alone: for the hand moving away from an object it has just placed)."""
         world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
-        free = CollisionChecker(world, self.robot).checker(hand)
-
-        def counted(q: np.ndarray) -> bool:
-            self.stats.collision_checks += 1
-            return free(q)
-
-        return counted
+        return ArmCheck(CollisionChecker(world, self.robot), hand, self.stats)
 
     def motion_free(self, segments: Iterable[Segment], obstacles: Volume) -> bool:
         """Whether every segment is clear of ``obstacles``, checked every `ARM_CHECK_STEP`."""
@@ -126,6 +139,12 @@ class Arm:
             solutions = self._solutions.get(key)
             if solutions is None:
                 solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
+            if (
+                isinstance(accept, ArmCheck)
+                and len(solutions)
+                and not accept.hand_clear(solutions[0])
+            ):
+                return None  # the hand is where every solution puts it
             return self.kinematics.select(solutions, accept)
 
     def push_heights(self, poses: Iterable[tuple[np.ndarray, float]]) -> list[float]:
