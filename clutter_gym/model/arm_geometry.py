@@ -41,7 +41,7 @@ class ArmGeometry:
         self._joints = hm.finger_joints()
         # Index into link_frames of the frame each primitive rides on (hand_base for fingers).
         hand = FRAME_LINKS.index("hand_base")
-        self._anchor = np.array(
+        self.anchors = np.array(
             [FRAME_LINKS.index(p.link) if p.link in FRAME_LINKS else hand for p in self.primitives]
         )
         self._offsets: dict[HandCommand, np.ndarray] = {}
@@ -75,7 +75,7 @@ class ArmGeometry:
 
     def primitive_poses(self, link_frames: np.ndarray, hand: HandCommand) -> np.ndarray:
         """(P, 4, 4) world poses of the primitives from `ArmKinematics.link_frames` (9, 4, 4)."""
-        return link_frames[self._anchor] @ self.offsets(hand)
+        return link_frames[self.anchors] @ self.offsets(hand)
 
     def link_poses(self, link_frames: np.ndarray, hand: HandCommand) -> dict[str, np.ndarray]:
         """World pose of every link frame (finger links included) at a hand command."""

@@ -426,6 +426,11 @@ class RobotCollision:
 
         self._self_pairs = [(group(a), group(b)) for a, b in SELF_COLLISION_GROUPS]
         self.hand_manager = group(HAND_RIGID_LINKS)
+        self._hand_objects = [
+            (i, o)
+            for i, (o, p) in enumerate(zip(self._objects, geometry.primitives, strict=True))
+            if p.link in HAND_RIGID_LINKS
+        ]
         self._placed: tuple[bytes, HandCommand] | None = None
 
     def place(self, q: np.ndarray, hand: HandCommand) -> None:
@@ -443,6 +448,19 @@ class RobotCollision:
             b.update()
         self.hand_manager.update()
         self._placed = key
+
+    def place_hand(self, tcp_pose: np.ndarray, hand: HandCommand) -> None:
+        """Move only the links rigid with the TCP (`HAND_RIGID_LINKS`) to a TCP pose, for
+        `hand_manager` queries; the next `place` moves every link again."""
+        frames = np.empty((9, 4, 4))
+        frames[7:] = self.kinematics.hand_frames(tcp_pose)
+        anchors = self.geometry.anchors
+        offsets = self.geometry.offsets(hand)
+        for i, obj in self._hand_objects:
+            pose = frames[anchors[i]] @ offsets[i]
+            obj.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        self.hand_manager.update()
+        self._placed = None
 
     def self_collision(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> bool:
         """Whether two links of `SELF_COLLISION_GROUPS` penetrate at q."""
@@ -493,13 +511,14 @@ class CollisionChecker:
         return bool(_collide(links, objects, _Query(skip)).hits)
 
     def hand_checker(self, hand: HandCommand = OPEN_HAND) -> Callable[[np.ndarray], bool]:
-        """Whether the links rigid with the TCP (`HAND_RIGID_LINKS`) at q are clear of the
-        surface and the objects. They stand alike in every IK solution of one TCP pose, so a
-        hit at one solution refuses all of them: a failing IK then costs one check, not one
-        per solution tried (`ArmKinematics.select` tries up to 64)."""
+        """Whether the links rigid with the TCP (`HAND_RIGID_LINKS`), with the TCP at a pose
+        (4x4), are clear of the surface and the objects. They stand alike in every IK solution
+        of the pose, so a hit refuses all of them before any is computed: a failing IK then
+        costs one check, not the solutions and one check per solution tried
+        (`ArmKinematics.select` tries up to 64)."""
 
-        def clear(q: np.ndarray) -> bool:
-            self.robot.place(q, hand)
+        def clear(tcp_pose: np.ndarray) -> bool:
+            self.robot.place_hand(tcp_pose, hand)
             links = self.robot.hand_manager
             if _collide(links, self.world.surface_manager, _Query()).hits:
                 return False

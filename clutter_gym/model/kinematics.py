@@ -80,6 +80,8 @@ class ArmKinematics:
         self._to_hand = transform((0.0, 0.0, hm.FT_SENSOR_LENGTH), (0.0, 0.0, hm.HAND_MOUNT_YAW))
         self._to_tcp = self._to_hand @ transform((0.0, 0.0, hm.HAND_TCP_OFFSET), (0.0, 0.0, 0.0))
         self._from_tcp = np.linalg.inv(self._to_tcp)
+        # The flange in the wam7 link frame is joint 7's DH transform without its rotation.
+        self._from_joint7 = np.linalg.inv(self._dh(np.zeros(7))[6])
         lower, upper = hm.arm_joint_limits(side)
         self.lower, self.upper = lower.copy(), upper.copy()
         self._j3_grid = np.linspace(self.lower[2], self.upper[2], J3_SAMPLES)
@@ -119,6 +121,12 @@ class ArmKinematics:
     def fk_tcp(self, q: np.ndarray) -> np.ndarray:
         """World pose of ``{side}_hand_tcp``."""
         return self._dh_frames(q)[7] @ self._to_tcp
+
+    def hand_frames(self, tcp_pose: np.ndarray) -> np.ndarray:
+        """World poses of the wam7 link frame and hand_base (2, 4, 4) with the TCP at
+        ``tcp_pose``: rigid with the TCP, the same in every IK solution of the pose."""
+        flange = np.asarray(tcp_pose, dtype=float) @ self._from_tcp
+        return np.stack([flange @ self._from_joint7, flange @ self._to_hand])
 
     def link_frames(self, q: np.ndarray) -> np.ndarray:
         """World poses of wam_base, the URDF link frames wam1..wam7 and hand_base: (9, 4, 4).

@@ -45,7 +45,7 @@ IKSolver = Callable[[np.ndarray, Free], np.ndarray | None]
 class ArmCheck:
     """The counted ``accept`` of the arm's IK and motions (`Arm.free_check`): the arm at q with
     a hand command clear of the surface, itself and the obstacles. `hand_clear` checks only the
-    links rigid with the TCP, which every IK solution of a pose puts in the same place."""
+    links rigid with the TCP at a TCP pose, where every IK solution of the pose puts them."""
 
     def __init__(self, checker: CollisionChecker, hand: HandCommand, stats: PlanStats) -> None:
         self._free = checker.checker(hand)
@@ -56,9 +56,9 @@ class ArmCheck:
         self._stats.collision_checks += 1
         return self._free(q)
 
-    def hand_clear(self, q: np.ndarray) -> bool:
+    def hand_clear(self, tcp_pose: np.ndarray) -> bool:
         self._stats.collision_checks += 1
-        return self._hand(q)
+        return self._hand(tcp_pose)
 
 
 class Arm:
@@ -135,16 +135,12 @@ class Arm:
         with self.stats.timed("ik"):
             if self._ik is not None:
                 return self._ik(target, accept)
+            if isinstance(accept, ArmCheck) and not accept.hand_clear(target):
+                return None  # the hand stands there in every solution
             key = (np.round(target, POSE_KEY_DECIMALS) + 0.0).tobytes()  # + 0.0: no -0.0
             solutions = self._solutions.get(key)
             if solutions is None:
                 solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
-            if (
-                isinstance(accept, ArmCheck)
-                and len(solutions)
-                and not accept.hand_clear(solutions[0])
-            ):
-                return None  # the hand is where every solution puts it
             return self.kinematics.select(solutions, accept)
 
     def push_heights(self, poses: Iterable[tuple[np.ndarray, float]]) -> list[float]:
