@@ -33,13 +33,13 @@ from clutter_gym.model.world import Surface
 _HAND_LINKS = ("hand_base", "f1_knuckle", "f2_knuckle") + tuple(
     f"f{i}_{part}" for i in (1, 2, 3) for part in ("prox", "dist")
 )
+HAND_RIGID_LINKS = ("wam7", *_HAND_LINKS)
+"""Links rigid with the TCP (the last wrist link and the hand): every IK solution of one TCP
+pose puts them in the same place, so one check of them speaks for all (`hand_checker`)."""
 #: Self-collision is checked between these groups of links only. Every other pair is disabled:
 #: chain neighbours always touch at their joints; the shoulder links (wam_base..wam3) cannot reach
 #: each other within the joint limits, nor can the wrist links and hand (wam5..hand), and the
 #: elbow (wam4) cannot reach the wrist or hand since j6 bends at most 90 degrees.
-HAND_RIGID_LINKS = ("wam7", *_HAND_LINKS)
-"""Links rigid with the TCP (the last wrist link and the hand): every IK solution of one TCP
-pose puts them in the same place, so one check of them speaks for all (`hand_checker`)."""
 SELF_COLLISION_GROUPS: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
     (("wam_base", "wam1", "wam2", "wam3"), ("wam5", "wam6", "wam7", *_HAND_LINKS)),
     (("wam_base", "wam1", "wam2"), ("wam4",)),
