@@ -315,7 +315,7 @@ def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap(
     """Pick-and-place's placement test skips objects whose samples are far away before it
     measures any pair: over a grid of placements of a held can around two neighbours, its
     answer is the exact overlap of the placed samples with every other object's samples."""
-    from planners.actions.pick_and_place import _meets_others
+    from planners.actions.pick_and_place import _meets_others, _Other
 
     ctx = _scene_context(
         ("can", "soda_can", (0.62, 0.0, 0.0)),
@@ -331,7 +331,8 @@ def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap(
             exact = Volume.of_object("can", spec, placed, TABLE.top_z).intersects(
                 ctx.objects_volume(others)
             )
-            assert _meets_others(ctx, "can", placed, others) == exact, (dx, dy)
+            met = _meets_others(ctx, "can", placed, [_Other.of(ctx, o) for o in others])
+            assert met == exact, (dx, dy)
             answers.append(exact)
     assert any(answers) and not all(answers)
     assert ctx.stats.seconds["placement"] > 0

@@ -446,12 +446,12 @@ class RobotCollision:
         for a, b in self._self_pairs:
             a.update()
             b.update()
-        self.hand_manager.update()
         self._placed = key
 
     def place_hand(self, tcp_pose: np.ndarray, hand: HandCommand) -> None:
         """Move only the links rigid with the TCP (`HAND_RIGID_LINKS`) to a TCP pose, for
-        `hand_manager` queries; the next `place` moves every link again."""
+        `hand_manager` queries (the only place that tree is updated: nothing else queries it);
+        the next `place` moves every link again."""
         frames = np.empty((9, 4, 4))
         frames[7:] = self.kinematics.hand_frames(tcp_pose)
         anchors = self.geometry.anchors
@@ -495,20 +495,21 @@ class CollisionChecker:
     ) -> bool:
         if self.surface_collision(q, hand):
             return True
-        if self._object_hit(self.world.object_manager, skip) and (
-            self.world.exact_manager is None or self._object_hit(self.world.exact_manager, skip)
-        ):
+        if self._objects_hit(self.robot.manager, skip):
             return True
         return self_collision and self.robot.self_collision(q, hand)
 
-    def _object_hit(
-        self,
-        objects: fcl.DynamicAABBTreeCollisionManager,
-        skip: frozenset[int],
-        robot: fcl.DynamicAABBTreeCollisionManager | None = None,
+    def _objects_hit(
+        self, links: fcl.DynamicAABBTreeCollisionManager, skip: frozenset[int]
     ) -> bool:
-        links = self.robot.manager if robot is None else robot
-        return bool(_collide(links, objects, _Query(skip)).hits)
+        """Whether placed ``links`` hit an object: its hull (or shape), then, where the world's
+        objects are hulls, the exact shapes confirming the hit."""
+
+        def hit(objects: fcl.DynamicAABBTreeCollisionManager) -> bool:
+            return bool(_collide(links, objects, _Query(skip)).hits)
+
+        exact = self.world.exact_manager
+        return hit(self.world.object_manager) and (exact is None or hit(exact))
 
     def hand_checker(self, hand: HandCommand = OPEN_HAND) -> Callable[[np.ndarray], bool]:
         """Whether the links rigid with the TCP (`HAND_RIGID_LINKS`), with the TCP at a pose
@@ -522,13 +523,7 @@ class CollisionChecker:
             links = self.robot.hand_manager
             if _collide(links, self.world.surface_manager, _Query()).hits:
                 return False
-            return not (
-                self._object_hit(self.world.object_manager, frozenset(), links)
-                and (
-                    self.world.exact_manager is None
-                    or self._object_hit(self.world.exact_manager, frozenset(), links)
-                )
-            )
+            return not self._objects_hit(links, frozenset())
 
         return clear
 

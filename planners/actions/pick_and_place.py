@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -83,7 +84,7 @@ def _free_placements(
     stands clear of every other object. Placements are plentiful and the object is held at
     many poses, so G is decided by its quick sufficient test (axis-aligned bounds clear of
     the NGR) and the other objects by bounding circles before any exact geometry."""
-    others = sorted(set(ctx.beliefs) - {name})
+    others = [_Other.of(ctx, o) for o in sorted(set(ctx.beliefs) - {name})]
     tried = 0
     with ctx.stats.timed("placement"):
         shifts = _placements(ctx, in_hand[0, :2])
@@ -97,7 +98,28 @@ def _free_placements(
         yield shift, placed
 
 
-def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: list[str]) -> bool:
+@dataclass(frozen=True)
+class _Other:
+    """Another object as the placement search meets it: its samples' (x, y), bounding radius
+    and the disc (centroid, spread) holding the samples, computed once per search."""
+
+    name: str
+    samples: np.ndarray
+    radius: float
+    centre: np.ndarray
+    spread: float
+
+    @classmethod
+    def of(cls, ctx: PlanningContext, name: str) -> _Other:
+        belief = ctx.beliefs[name]
+        centre, spread = _disc(belief.samples)
+        radius = belief.spec.footprint.bounding_radius
+        return cls(name, belief.samples[:, :2], radius, centre, spread)
+
+
+def _meets_others(
+    ctx: PlanningContext, name: str, placed: np.ndarray, others: list[_Other]
+) -> bool:
     """Whether the object at any of ``placed`` overlaps a sample of another object: bounding
     circles first, the exact shapes only where those meet. An object whose samples' disc
     (centroid and spread) is farther than every pair of circles could reach is skipped before
@@ -106,15 +128,13 @@ def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: l
         radius = ctx.beliefs[name].spec.footprint.bounding_radius
         centre, spread = _disc(placed)
         near = []
-        for o in others:
-            samples = ctx.beliefs[o].samples[:, :2]
-            reach = radius + ctx.beliefs[o].spec.footprint.bounding_radius
-            other_centre, other_spread = _disc(samples)
-            if np.linalg.norm(centre - other_centre) >= spread + other_spread + reach:
+        for other in others:
+            reach = radius + other.radius
+            if np.linalg.norm(centre - other.centre) >= spread + other.spread + reach:
                 continue
-            gaps = np.linalg.norm(placed[:, None, :2] - samples[None], axis=-1)
+            gaps = np.linalg.norm(placed[:, None, :2] - other.samples[None], axis=-1)
             if (gaps < reach).any():
-                near.append(o)
+                near.append(other.name)
         if not near:
             return False
         spec = ctx.beliefs[name].spec
