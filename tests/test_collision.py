@@ -381,3 +381,71 @@ def test_a_change_of_hand_command_sweeps_the_fingers_between(checker: CollisionC
         assert hit_closing or not hit_ends
         only_on_the_way += hit_closing and not hit_ends
     assert only_on_the_way > 0
+
+
+def _touch_part_by_part(a: Volume, b: Volume) -> bool:
+    """The reference: every pair of parts through fcl's narrow phase, no broad phase."""
+    request = fcl.CollisionRequest()
+    return any(
+        fcl.collide(pa, pb, request, fcl.CollisionResult())
+        for pa, _, _ in a.parts
+        for pb, _, _ in b.parts
+    )
+
+
+def _random_volume(rng: np.random.Generator, tag: str) -> Volume:
+    """One to three objects, each at up to 80 poses strung along a line with noise: an
+    evolution's or an uncertainty region's copies, some near the other volumes."""
+    volume = Volume()
+    kinds = sorted(OBJECTS)
+    for i in range(int(rng.integers(1, 4))):
+        count = int(rng.integers(1, 80))
+        start = rng.uniform(-0.6, 0.6, 2)
+        along = np.linspace(0.0, rng.uniform(0.0, 0.2), count)
+        poses = np.column_stack(
+            [
+                start[0] + along + rng.normal(0.0, 0.02, count),
+                start[1] + rng.normal(0.0, 0.02, count),
+                rng.uniform(-np.pi, np.pi, count),
+            ]
+        )
+        spec = OBJECTS[kinds[int(rng.integers(len(kinds)))]]
+        volume += Volume.of_object(f"{tag}{i}", spec, poses, TABLE.top_z)
+    return volume
+
+
+def test_volume_queries_agree_with_every_pair_of_parts() -> None:
+    """`Volume.intersects` tests large volumes asked more than once as bounded groups of
+    copies: the answers must stay those of the parts themselves, for sums of volumes, for
+    FindPenetrated and whichever side is grouped."""
+    rng = np.random.default_rng(7)
+    answers = []
+    for trial in range(40):
+        a, b, c = (_random_volume(rng, f"{side}{trial}_") for side in "abc")
+        for x, y in [(a, b), (a, c), (a, b), (b, a), (c, a + b), (a + b, c), (c, a + b)]:
+            expected = _touch_part_by_part(x, y)
+            assert x.intersects(y) == expected
+            answers.append(expected)
+        labels = {
+            label
+            for label in sorted((b + c).labels)
+            if _touch_part_by_part(a, Volume(p for p in (b + c).parts if p[2] == label))
+        }
+        assert a.penetrated(b + c) == labels
+    assert 0.2 < np.mean(answers) < 0.8  # both answers are exercised
+
+
+def test_lowest_over_any_is_the_lowest_over_each_box() -> None:
+    """The goal's quick test asks whether every pose certainly misses the NGR at once: it must
+    be the per-box answer's minimum, boxes off the map and partly on it included."""
+    rng = np.random.default_rng(3)
+    for trial in range(30):
+        volume = _random_volume(rng, f"v{trial}_")
+        for count in (1, 5, 40):
+            centres = rng.uniform(-0.9, 0.9, (count, 2))
+            half = rng.uniform(0.01, 0.12, (count, 2))
+            boxes = np.column_stack(
+                [centres[:, 0] - half[:, 0], centres[:, 0] + half[:, 0]]
+                + [centres[:, 1] - half[:, 1], centres[:, 1] + half[:, 1]]
+            )
+            assert volume.lowest_over_any(boxes) == volume.lowest_over(boxes).min()

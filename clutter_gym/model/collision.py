@@ -15,7 +15,9 @@ trajectory. Avoid volumes, negative goal regions and FindPenetrated are all Volu
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable, Collection, Iterable, Mapping
+from typing import NamedTuple
 
 import fcl
 import numpy as np
@@ -120,6 +122,128 @@ def _collide(a: fcl.DynamicAABBTreeCollisionManager, b: object, query: _Query) -
     return query
 
 
+GROUP_SIZE = 16
+"""Copies of one shape (consecutive parts sharing a geometry) per bounding box in
+`Volume.intersects`: arm links 0.02 rad apart along a path, or an object's samples at one
+stage of its evolution, lie close together, so their bound is tight."""
+DIRECT_PAIRS = 256
+"""Volumes whose part counts multiply to at most this are compared part by part directly."""
+GROUP_AFTER = 2
+"""`Volume.intersects` calls before a large volume is tested as bounded groups."""
+
+
+class _Groups:
+    """Bounding boxes of groups of a volume's parts, each with the volume of its parts."""
+
+    def __init__(
+        self,
+        objects: list[fcl.CollisionObject],
+        members: dict[int, Volume],
+        manager: fcl.DynamicAABBTreeCollisionManager | None = None,
+    ) -> None:
+        self.objects = objects
+        #: The parts inside each bound, by ``id`` of the bound's geometry.
+        self.members = members
+        self._manager = manager
+
+    @property
+    def manager(self) -> fcl.DynamicAABBTreeCollisionManager:
+        if self._manager is None:
+            self._manager = _manager(self.objects)
+        return self._manager
+
+    @classmethod
+    def of_parts(cls, parts: tuple[Part, ...]) -> _Groups:
+        """Copies of one shape in order, `GROUP_SIZE` at a time, each group bounded by a box
+        turned like its first copy (the copies turn little within a group): tight, and built
+        with a few array operations where a convex hull costs a millisecond."""
+        by_shape: dict[int, list[Part]] = {}
+        for part in parts:
+            by_shape.setdefault(id(part[1]), []).append(part)
+        objects, members = [], {}
+        for same in by_shape.values():
+            geometry = same[0][1]
+            if isinstance(geometry, fcl.Convex):  # already a hull (`hulled`): as it is
+                objects += [obj for obj, _, _ in same]
+                members[id(geometry)] = Volume(same)
+                continue
+            rotations = np.array([obj.getRotation() for obj, _, _ in same])
+            origins = np.array([obj.getTranslation() for obj, _, _ in same])
+            corners = _BOX_SIGNS * _half_extents(geometry)
+            world = np.einsum("nij,kj->nki", rotations, corners) + origins[:, None]
+            for k in range(0, len(same), GROUP_SIZE):
+                turn = rotations[k]
+                local = (world[k : k + GROUP_SIZE].reshape(-1, 3) - origins[k]) @ turn
+                low, high = local.min(0), local.max(0)
+                box = fcl.Box(*(high - low))
+                centre = origins[k] + turn @ ((low + high) / 2)
+                objects.append(fcl.CollisionObject(box, fcl.Transform(turn, centre)))
+                members[id(box)] = Volume(same[k : k + GROUP_SIZE])
+        return cls(objects, members)
+
+
+class _Side(NamedTuple):
+    """One volume in a `_GroupQuery`: its parts, or its group bounds and the parts in each."""
+
+    manager: fcl.DynamicAABBTreeCollisionManager
+    keys: Mapping[int, object]  # the ids of the geometries its tree reports
+    members: Mapping[int, Volume] | None  # by bound geometry id; None: the tree holds parts
+
+
+class _GroupQuery:
+    """Broad-phase callback over two volumes, one or both as group bounds: a bound that touches
+    the other side is confirmed with the parts it holds, and the first confirmed contact ends
+    the search."""
+
+    def __init__(self, mine: _Side, theirs: _Side) -> None:
+        self.mine = mine
+        self.theirs = theirs
+        self.hit = False
+        self.error: Exception | None = None
+
+    def __call__(self, o1: fcl.CollisionObject, o2: fcl.CollisionObject, _: object) -> bool:
+        try:
+            result = fcl.CollisionResult()
+            if fcl.collide(o1, o2, _REQUEST, result):
+                contact = result.contacts[0]
+                (a, obj_a), (b, obj_b) = (id(contact.o1), o1), (id(contact.o2), o2)
+                if a not in self.mine.keys:
+                    (a, obj_a), (b, obj_b) = (b, obj_b), (a, obj_a)
+                parts_a = None if self.mine.members is None else self.mine.members[a]
+                parts_b = None if self.theirs.members is None else self.theirs.members[b]
+                self.hit = _confirmed(parts_a, obj_a, parts_b, obj_b)
+        except Exception as error:  # fcl prints and drops a callback's exception
+            self.error = error
+            return True
+        return self.hit
+
+    def run(self) -> bool:
+        """Whether the two volumes touch."""
+        self.mine.manager.collide(self.theirs.manager, None, self)
+        if self.error is not None:
+            raise self.error
+        return self.hit
+
+
+def _confirmed(
+    parts_a: Volume | None,
+    obj_a: fcl.CollisionObject,
+    parts_b: Volume | None,
+    obj_b: fcl.CollisionObject,
+) -> bool:
+    """Whether two touching objects, each a part or the bound of the given parts, have parts
+    that touch."""
+    if parts_a is None and parts_b is None:
+        return True
+    if parts_a is None or parts_b is None:
+        # The broad phase hands over stand-ins of the registered objects, which a tree will
+        # not take: the part meets each of the bound's few parts in turn.
+        parts, obj = (parts_b, obj_a) if parts_a is None else (parts_a, obj_b)
+        assert parts is not None
+        return any(fcl.collide(obj, p, _REQUEST, fcl.CollisionResult()) for p, _, _ in parts.parts)
+    return bool(_collide(parts_a.manager, parts_b.manager, _Query()).hits)
+
+
 ROBOT = "robot"
 """Label of the robot's shapes in a `Volume`."""
 
@@ -134,13 +258,18 @@ class Volume:
     Managers are built lazily, once, because volumes are queried far more often than built.
     """
 
-    def __init__(self, parts: Iterable[Part] = ()) -> None:
+    def __init__(self, parts: Iterable[Part] = (), leaves: tuple[Volume, ...] = ()) -> None:
         self.parts: tuple[Part, ...] = tuple(parts)
         self.owner: dict[int, str] = {id(geometry): label for _, geometry, label in self.parts}
+        #: The volumes summed into this one (`__add__`), whose groups it reuses; a volume
+        #: built from parts is its own single leaf.
+        self._leaves = leaves or (self,)
         self._manager: fcl.DynamicAABBTreeCollisionManager | None = None
-        self._by_label: dict[str, fcl.DynamicAABBTreeCollisionManager] = {}
+        self._by_label: dict[str, Volume] = {}
         self._floor: _FloorMap | None = None
         self._hulled: Volume | None = None
+        self._groups: _Groups | None = None
+        self._queries = 0  # `intersects` calls so far
 
     @classmethod
     def of_object(cls, name: str, spec: ObjectSpec, poses: np.ndarray, surface_z: float) -> Volume:
@@ -196,7 +325,8 @@ class Volume:
         return cls([(placed, geometry, label)])
 
     def __add__(self, other: Volume) -> Volume:
-        return Volume(self.parts + other.parts)
+        leaves = tuple(v for v in self._leaves + other._leaves if v.parts)
+        return Volume(self.parts + other.parts, leaves)
 
     def __len__(self) -> int:
         return len(self.parts)
@@ -211,16 +341,45 @@ class Volume:
             self._manager = _manager(obj for obj, _, _ in self.parts)
         return self._manager
 
-    def _label_manager(self, label: str) -> fcl.DynamicAABBTreeCollisionManager:
+    def _of_label(self, label: str) -> Volume:
+        """The parts of one owner, as the sum of the leaves that hold only it where they do
+        (so that their groups are reused)."""
         if label not in self._by_label:
-            self._by_label[label] = _manager(obj for obj, _, owner in self.parts if owner == label)
+            leaves = [v for v in self._leaves if label in v.labels]
+            if all(v.labels == {label} for v in leaves):
+                self._by_label[label] = sum(leaves[1:], leaves[0])
+            else:
+                self._by_label[label] = Volume(p for p in self.parts if p[2] == label)
         return self._by_label[label]
 
     def intersects(self, other: Volume) -> bool:
-        """Whether any shape of this volume penetrates any shape of ``other``."""
+        """Whether any shape of this volume penetrates any shape of ``other``.
+
+        A large volume (hundreds of overlapping copies of an arm link along a path, or of an
+        object along its evolution) that is asked again meets the other first as one bounding
+        box per `GROUP_SIZE` copies, and only a box that touches compares its copies: the
+        broad phase of the copies themselves reports hundreds of pairs of overlapping bounds
+        per query, each a Python callback. The answer is the exact one (a box contains its
+        copies)."""
         if not self.parts or not other.parts:
             return False
-        return bool(_collide(self.manager, other.manager, _Query()).hits)
+        self._queries += 1
+        other._queries += 1
+        if len(self.parts) * len(other.parts) <= DIRECT_PAIRS:
+            return bool(_collide(self.manager, other.manager, _Query()).hits)
+        mine, theirs = self._side(), other._side()
+        if mine.members is None and theirs.members is None:
+            return bool(_collide(self.manager, other.manager, _Query()).hits)
+        return _GroupQuery(mine, theirs).run()
+
+    def _side(self) -> _Side:
+        """This volume in a query: as bounded groups once it is large and asked again (a
+        volume asked once is cheaper to test part by part than to group)."""
+        grouped = self._groups is not None or self._queries >= GROUP_AFTER
+        if len(self.parts) > GROUP_SIZE and grouped:
+            groups = self._grouped()
+            return _Side(groups.manager, groups.members, groups.members)
+        return _Side(self.manager, self.owner, None)
 
     def hulled(self) -> Volume:
         """One convex hull per label around all its parts: a conservative stand-in for a union
@@ -247,18 +406,35 @@ class Volume:
             self._floor = _FloorMap(self.parts)
         return self._floor.lowest_over(np.asarray(boxes, dtype=float).reshape(-1, 4))
 
+    def lowest_over_any(self, boxes: np.ndarray) -> float:
+        """The lowest of `lowest_over` (inf: nothing over any box), computed at once: whether
+        a set of poses all certainly miss the volume."""
+        if self._floor is None:
+            self._floor = _FloorMap(self.parts)
+        return self._floor.lowest_over_any(np.asarray(boxes, dtype=float).reshape(-1, 4))
+
     def penetrated(self, other: Volume) -> set[str]:
         """FindPenetrated: the labels of ``other`` whose shapes this volume penetrates."""
         if not self.parts:
             return set()
-        return {
-            label
-            for label in sorted(other.labels)
-            if _collide(self.manager, other._label_manager(label), _Query()).hits
-        }
+        return {label for label in sorted(other.labels) if self.intersects(other._of_label(label))}
+
+    def _grouped(self) -> _Groups:
+        """The bounded groups of its parts: a sum's are its leaves' (built once per leaf)."""
+        if self._groups is None:
+            if self._leaves == (self,):
+                self._groups = _Groups.of_parts(self.parts)
+            elif len(self._leaves) == 1:
+                self._groups = self._leaves[0]._grouped()
+            else:
+                groups = [leaf._grouped() for leaf in self._leaves]
+                members = {k: v for g in groups for k, v in g.members.items()}
+                self._groups = _Groups([o for g in groups for o in g.objects], members)
+        return self._groups
 
 
 _HULL_SIDES = 16
+_BOX_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 
 
 def _half_extents(geometry: fcl.CollisionGeometry) -> np.ndarray:
@@ -280,8 +456,7 @@ def part_points(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np
         h = geometry.lz / 2
         local = np.vstack([np.c_[ring, np.full(len(ring), -h)], np.c_[ring, np.full(len(ring), h)]])
     else:
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-        local = signs * _half_extents(geometry)
+        local = _BOX_SIGNS * _half_extents(geometry)
     return local @ np.asarray(obj.getRotation()).T + np.asarray(obj.getTranslation())
 
 
@@ -326,18 +501,44 @@ class _FloorMap:
             cells = self.lowest[i0 : i1 + 1, j0 : j1 + 1]
             np.minimum(cells, z, out=cells)
 
-    def lowest_over(self, boxes: np.ndarray) -> np.ndarray:
+    def _windows(self, boxes: np.ndarray) -> tuple[np.ndarray, ...]:
+        """First and last cell rows and columns (i0, i1, j0, j1) under each box, clipped to
+        the map (empty where i0 > i1 or j0 > j1)."""
         r = self.RESOLUTION
         n, m = self.lowest.shape
         i0 = np.floor((boxes[:, 0] - self.origin[0]) / r).astype(int).clip(0, n)
         i1 = np.floor((boxes[:, 1] - self.origin[0]) / r).astype(int).clip(-1, n - 1)
         j0 = np.floor((boxes[:, 2] - self.origin[1]) / r).astype(int).clip(0, m)
         j1 = np.floor((boxes[:, 3] - self.origin[1]) / r).astype(int).clip(-1, m - 1)
+        return i0, i1, j0, j1
+
+    def lowest_over(self, boxes: np.ndarray) -> np.ndarray:
+        i0, i1, j0, j1 = self._windows(boxes)
         out = np.full(len(boxes), np.inf)
         for k in range(len(boxes)):
             if i0[k] <= i1[k] and j0[k] <= j1[k]:
                 out[k] = self.lowest[i0[k] : i1[k] + 1, j0[k] : j1[k] + 1].min()
         return out
+
+    def lowest_over_any(self, boxes: np.ndarray) -> float:
+        """``lowest_over(boxes).min()`` without a loop over the boxes: the cells under any
+        box are marked at once (corner increments and two cumulative sums), then one min."""
+        i0, i1, j0, j1 = self._windows(boxes)
+        keep = (i0 <= i1) & (j0 <= j1)
+        if not keep.any():
+            return math.inf
+        i0, i1, j0, j1 = i0[keep], i1[keep], j0[keep], j1[keep]
+        a, b = i0.min(), j0.min()
+        marks = np.zeros((i1.max() - a + 2, j1.max() - b + 2), dtype=int)
+        for rows, cols, sign in (
+            (i0, j0, 1),
+            (i1 + 1, j0, -1),
+            (i0, j1 + 1, -1),
+            (i1 + 1, j1 + 1, 1),
+        ):
+            np.add.at(marks, (rows - a, cols - b), sign)
+        covered = marks.cumsum(0).cumsum(1)[:-1, :-1] > 0
+        return float(self.lowest[a : i1.max() + 1, b : j1.max() + 1][covered].min())
 
 
 class CollisionWorld:
@@ -440,8 +641,12 @@ class RobotCollision:
         if key == self._placed:
             return
         poses = self.geometry.primitive_poses(self.kinematics.link_frames(q), hand)
-        for obj, pose in zip(self._objects, poses, strict=True):
-            obj.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        # Rotation and translation set apart: half the cost of building an fcl.Transform each.
+        for obj, rotation, origin in zip(
+            self._objects, poses[:, :3, :3], poses[:, :3, 3], strict=True
+        ):
+            obj.setRotation(rotation)
+            obj.setTranslation(origin)
         self.manager.update()
         for a, b in self._self_pairs:
             a.update()
@@ -458,7 +663,8 @@ class RobotCollision:
         offsets = self.geometry.offsets(hand)
         for i, obj in self._hand_objects:
             pose = frames[anchors[i]] @ offsets[i]
-            obj.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+            obj.setRotation(pose[:3, :3])
+            obj.setTranslation(pose[:3, 3])
         self.hand_manager.update()
         self._placed = None
 

@@ -137,13 +137,13 @@ class ArmKinematics:
         dh = self._dh_frames(q)
         out = np.empty((9, 4, 4))
         out[0] = self.base
-        c, s = np.cos(q), np.sin(q)
-        for i in range(7):
-            # URDF frame of link i+1 = DH frame i rotated by q_{i+1} about its z axis.
-            f = dh[i]
-            out[i + 1] = f
-            out[i + 1, :3, 0] = c[i] * f[:3, 0] + s[i] * f[:3, 1]
-            out[i + 1, :3, 1] = -s[i] * f[:3, 0] + c[i] * f[:3, 1]
+        # URDF frame of link i+1 = DH frame i rotated by q_{i+1} about its z axis (all seven
+        # at once: the arm's collision checks call this tens of thousands of times a plan).
+        out[1:8] = dh[:7]
+        c, s = np.cos(q)[:, None], np.sin(q)[:, None]
+        x, y = dh[:7, :3, 0], dh[:7, :3, 1]
+        out[1:8, :3, 0] = c * x + s * y
+        out[1:8, :3, 1] = -s * x + c * y
         out[8] = dh[7] @ self._to_hand
         return out
 

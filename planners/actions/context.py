@@ -79,6 +79,7 @@ class PlanningContext:
         #: that holds it (`push_grasp._blocked_before`), whatever else it holds.
         self.blocked_hands: dict[tuple[str, float, float, float], tuple[str, str]] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
+        self._stable: dict[str, np.ndarray] = {}
         #: Upright carries out of the shelf that found no path (`hand_in.FAILED_CARRIES`).
         self.failed_carries = 0
 
@@ -139,11 +140,18 @@ class PlanningContext:
         the action stands stable after it (``final`` holds one row per sample, or several such
         blocks, one per pushing parameter set). A sample that was already off (a sigma2 sample
         of a box overhanging the shelf front) is not the action's doing and does not veto it."""
-        before = self.stable_mask(name, self.beliefs[name].samples)
+        before = self._stable_before(name)
         after = self.stable_mask(name, final)
         if len(after) % len(before):
             return bool(after.all())
         return bool(np.all(after | ~np.tile(before, len(after) // len(before))))
+
+    def _stable_before(self, name: str) -> np.ndarray:
+        """`stable_mask` of U(o) as detected, once per object (every outcome is tested
+        against it)."""
+        if name not in self._stable:
+            self._stable[name] = self.stable_mask(name, self.beliefs[name].samples)
+        return self._stable[name]
 
     # -- capture regions ----------------------------------------------------------------------
     def push_region(self, footprint: Footprint, aperture: float) -> CaptureRegion:

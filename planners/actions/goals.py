@@ -93,8 +93,9 @@ class AwayFrom:
         with ctx.stats.timed("goal"):
             if not ctx.stays_stable(name, final):
                 return False
-            lowest = self._lowest_over(ctx, name, final)
-            return bool(np.all(lowest > ctx.surface.top_z + ctx.beliefs[name].spec.height))
+            boxes = ctx.beliefs[name].spec.footprint.aabbs(final)
+            lowest = self.ngr.lowest_over_any(boxes)
+            return bool(lowest > ctx.surface.top_z + ctx.beliefs[name].spec.height)
 
     def _lowest_over(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
         """The NGR's lowest point over each pose's axis-aligned bounds (inf: nothing over)."""
