@@ -41,9 +41,12 @@ PILOT_INTO_AVOID = "the detected pose sweeps into avoidVol"
 EXACT_STRIDE = 4
 """Steps of nu_o between the first exact goal tests of a sweep's first guess."""
 
-SWEEP_PLACEMENTS = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9)
+SWEEP_PLACEMENTS = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9, 0.55, 0.65, 0.45, 0.75)
 """Where the object's centre meets the hand's side, as fractions from the wrist end to the
-fingertip, most central first."""
+fingertip, most central first, then the half-steps between the central ones: how far the sweep
+region holds an object changes steeply with the placement (a large box swept square to its face
+in a Figs. 3-5 variant: every sample 0.27 m at 0.5, 0.72 m at 0.6, where the arm has no IK at the
+sweep's start)."""
 
 
 def sweep(
