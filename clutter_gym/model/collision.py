@@ -186,8 +186,8 @@ class _Side(NamedTuple):
     """One volume in a `_GroupQuery`: its parts, or its group bounds and the parts in each."""
 
     manager: fcl.DynamicAABBTreeCollisionManager
-    keys: Mapping[int, object]  # the ids of the geometries its tree reports
-    members: Mapping[int, Volume] | None  # by bound geometry id; None: the tree holds parts
+    keys: Mapping[int, object]  # by the ids of the geometries its tree reports: bounds or parts
+    members: Mapping[int, Volume] | None  # the parts in each bound; None: the tree holds parts
 
 
 class _GroupQuery:
@@ -402,16 +402,17 @@ class Volume:
         volume above each (inf where nothing is), from a 1 cm top-view map of the parts'
         bounding boxes. An object whose top is below that height certainly misses the volume:
         a quick test before the exact one, since most goal poses are far from the NGR."""
-        if self._floor is None:
-            self._floor = _FloorMap(self.parts)
-        return self._floor.lowest_over(np.asarray(boxes, dtype=float).reshape(-1, 4))
+        return self._floor_map().lowest_over(np.asarray(boxes, dtype=float).reshape(-1, 4))
 
     def lowest_over_any(self, boxes: np.ndarray) -> float:
         """The lowest of `lowest_over` (inf: nothing over any box), computed at once: whether
         a set of poses all certainly miss the volume."""
+        return self._floor_map().lowest_over_any(np.asarray(boxes, dtype=float).reshape(-1, 4))
+
+    def _floor_map(self) -> _FloorMap:
         if self._floor is None:
             self._floor = _FloorMap(self.parts)
-        return self._floor.lowest_over_any(np.asarray(boxes, dtype=float).reshape(-1, 4))
+        return self._floor
 
     def penetrated(self, other: Volume) -> set[str]:
         """FindPenetrated: the labels of ``other`` whose shapes this volume penetrates."""
