@@ -49,6 +49,28 @@ class GraspTSR:
         return Frame2D((float(origin[0]), float(origin[1])), heading)
 
 
+STATIC_GRASP_DEPTH = 0.015
+"""m an object's centre must stand behind the fingertip line (the region's ``grasp_line``) for
+fingers closing on it without a push to hold it. Measured in pybullet (`clutter-gym
+validate-capture --action static-grasp --aperture all`, docs/results/capture_static.md): where
+the region needs no push but the centre is within 15 mm of the line, a juice bottle toppled or
+was flung off the table in 53 of 554 closes at the 0.10-0.156 m preshapes (the fingertips meet
+it in front of its centre and squeeze it out), and behind that it held in all 868; cans and poptart
+boxes held everywhere. The planner first met it as a pick-and-place of a bottle 8 mm behind the
+line that flung it off the table (Table 1 high_04, no noise). A push ends every sample at least
+`PUSH_MARGIN` deeper than the region needs, so only grasps without a push need this."""
+
+
+def grasped_still(region: CaptureRegion, in_hand: np.ndarray) -> np.ndarray:
+    """Which object poses (N, 3) in the hand frame the fingers grasp by closing where the hand
+    stands, with no push: in the region, needing no push, and `STATIC_GRASP_DEPTH` behind the
+    fingertip line."""
+    in_hand = np.asarray(in_hand, dtype=float).reshape(-1, 3)
+    inside, push = region.query(in_hand)
+    deep = in_hand[:, 0] <= region.grasp_line - STATIC_GRASP_DEPTH
+    return np.asarray(inside & (push <= 0.0) & deep)
+
+
 def grasps_every_sample(
     region: CaptureRegion, tsr: GraspTSR, draws: np.ndarray, samples: np.ndarray
 ) -> np.ndarray:
@@ -58,6 +80,5 @@ def grasps_every_sample(
     in_hand = np.concatenate(
         [tsr.hand_frame(*draw).to_frame(samples) for draw in np.asarray(draws, dtype=float)]
     )
-    inside, push = region.query(in_hand)
-    static = (inside & (push <= 0.0)).reshape(len(draws), len(samples))
+    static = grasped_still(region, in_hand).reshape(len(draws), len(samples))
     return np.asarray(static.all(axis=1))

@@ -19,7 +19,7 @@ from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_region
 from planners.hand2d import STRAIGHT_APERTURE, push_grasp_profile
 from planners.rearrange import Plan, plan_retrieval
-from planners.tsr import GraspTSR, grasps_every_sample
+from planners.tsr import STATIC_GRASP_DEPTH, GraspTSR, grasped_still, grasps_every_sample
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
 from tests.helpers import lone_can
 
@@ -63,6 +63,24 @@ def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
     # 7 cm to either side of the centre: no single hand pose closes on both.
     spread = np.array([[1.0, -0.07, 0.0], [1.0, 0.07, 0.0]])
     assert not grasps_every_sample(region, tsr, draw, spread)[0]
+
+
+def test_a_static_grasp_needs_the_object_deep_behind_the_fingertips() -> None:
+    """Between the fingertips but just behind their line the region needs no push, yet closing
+    there flung a juice bottle (validate-capture --action static-grasp): not a static grasp."""
+    bottle = get_object("juice_bottle")
+    aperture = 0.1  # the narrowest preshape, where the bottle was flung
+    region = push_grasp_region(bottle.footprint, aperture)
+    line = push_grasp_profile(aperture).grasp_line
+    near = np.array([[line - STATIC_GRASP_DEPTH / 2, 0.0, 0.0]])
+    deep = np.array([[line - STATIC_GRASP_DEPTH - 0.005, 0.0, 0.0]])
+    inside, push = region.query(near)
+    assert inside[0] and push[0] == 0.0  # the region alone would close here
+    assert not grasped_still(region, near)[0]
+    assert grasped_still(region, deep)[0]
+    tsr = GraspTSR((1.0, 0.0), (0.0, 0.0), (0.0, 0.0), (near[0, 0], near[0, 0]))
+    draw = np.array([[0.0, 0.0, near[0, 0]]])
+    assert not grasps_every_sample(region, tsr, draw, np.array([[1.0, 0.0, 0.0]]))[0]
 
 
 @pytest.mark.parametrize("noise", ["sigma1", "sigma2"])

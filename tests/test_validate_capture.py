@@ -18,7 +18,8 @@ from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.world import TABLE
 from planners.capture import sweep_region
-from planners.hand2d import default_aperture
+from planners.hand2d import default_aperture, push_grasp_profile
+from planners.tsr import STATIC_GRASP_DEPTH
 from tests.helpers import WHITE, assert_picture
 
 
@@ -176,6 +177,36 @@ def test_push_grasp_validation_predicts_as_the_planner_pushes() -> None:
     assert edge.any() and not (predicted & edge).any() and ((predicted | edge) == inside).all()
     assert (need[predicted] <= vc.DISTANCE - vc.PUSH_MARGIN).all()
     assert (need[edge] > vc.DISTANCE - vc.PUSH_MARGIN).all()
+
+
+def test_static_grasp_validation_predicts_as_the_planner_closes() -> None:
+    """Static grasps are predicted where the planner closes without a push; the poses the region
+    holds without a push nearer the fingertip line are the edge, counted apart."""
+    spec = vc.get_object("juice_bottle")
+    region, poses, setups, _ = vc._jobs(spec, "static-grasp", 300, (0.0,), 0.1)
+    assert isinstance(region, vc.CaptureRegion)
+    predicted, edge = vc.predictions(region, poses, "static-grasp")
+    inside, push = region.query(poses)
+    line = region.grasp_line
+    assert predicted.any() and edge.any() and not (predicted & edge).any()
+    assert ((predicted | edge) == (inside & (push <= 0.0))).all()
+    assert (poses[predicted, 0] <= line - STATIC_GRASP_DEPTH).all()
+    assert (poses[edge, 0] > line - STATIC_GRASP_DEPTH).all()
+    assert poses[:, 0].max() > line  # the grid runs past the fingertips
+    assert [s.distance for s in setups] == [0.0]
+
+
+def test_a_deep_can_is_grasped_without_a_push() -> None:
+    spec = get_object("soda_can")
+    aperture = default_aperture(spec.footprint)
+    setup = vc.plan_push(spec, aperture, 0.0, 0.0)
+    assert setup.action_type == "static-grasp"
+    line = push_grasp_profile(aperture).grasp_line
+    env = ClutterRetrieveEnv()
+    assert vc.run_trial(env, "soda_can", setup, (line - 0.03, 0.0, 0.0)) == "success"
+    # In front of the fingertips nothing pulls it in: the closing hand misses it.
+    assert vc.run_trial(env, "soda_can", setup, (line + 0.06, 0.0, 0.0)).startswith("failure")
+    env.close()
 
 
 def test_the_region_figure_draws_the_validated_aperture() -> None:

@@ -229,8 +229,8 @@ def run_validate_capture(args: argparse.Namespace) -> int:
     kind = resolve_kind(args.object, args.action)  # before the simulator loads
     apertures: list[float | None] = [args.aperture]
     if args.aperture == "all":
-        if args.action != "push-grasp":
-            raise ValueError("--aperture: only push-grasps take an aperture (sweeps use one)")
+        if args.action == "sweep":
+            raise ValueError("--aperture: only grasps take an aperture (sweeps use one)")
         from clutter_gym.model.objects import get_object
         from planners.capture import push_grasp_apertures
 

@@ -13,7 +13,7 @@ from agents.cli.arguments import (
     output_file,
     read_json,
 )
-from agents.experiments.capture_objects import ACTIONS as VALIDATED_ACTIONS
+from agents.experiments.capture_objects import REGION_ACTIONS
 
 
 def add_benchmark_plots(parser: argparse.ArgumentParser) -> None:
@@ -33,7 +33,7 @@ def run_benchmark_plots(args: argparse.Namespace) -> int:
 def add_capture_region(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--object", required=True, help="can, bottle, poptart or a kind")
     parser.add_argument(
-        "--action", choices=VALIDATED_ACTIONS, default="push-grasp", help="the region's action"
+        "--action", choices=REGION_ACTIONS, default="push-grasp", help="the region's action"
     )
     parser.add_argument("--out", type=output_file, required=True, help="PNG to write")
     parser.add_argument(

@@ -9,7 +9,12 @@ from typing import Any
 
 from clutter_gym.model.objects import OBJECTS
 
-ACTIONS = ("push-grasp", "sweep")
+ACTIONS = ("push-grasp", "static-grasp", "sweep")
+"""What validate-capture runs: a push-grasp region's pushes, the grasps of its part that needs no
+push (`planners.tsr.grasped_still`), and sweeps."""
+REGION_ACTIONS = ("push-grasp", "sweep")
+"""The actions whose capture regions are drawn."""
+GRASPS = ("push-grasp", "static-grasp")
 ALIASES = {"can": "soda_can", "bottle": "juice_bottle", "poptart": "poptart_box"}
 
 
@@ -22,8 +27,8 @@ def resolve_kind(name: str, action: str = "push-grasp") -> str:
         allowed = sorted({*ALIASES, *OBJECTS})
         raise ValueError(f"--object: unknown object {name!r}; allowed: {', '.join(allowed)}")
     spec = OBJECTS[kind]
-    if action == "push-grasp" and not (spec.graspable and spec.liftable):
-        raise ValueError(f"--object: {kind} cannot be push-grasped and lifted")
+    if action in GRASPS and not (spec.graspable and spec.liftable):
+        raise ValueError(f"--object: {kind} cannot be grasped and lifted")
     return kind
 
 

@@ -13,6 +13,14 @@ Push-grasps (``--action push-grasp``): the hand preshaped to the region's apertu
 of `DISTANCE`, closing the fingers, a 15 cm lift. Success is the env's: held by finger contact and
 lifted 10 cm.
 
+Static grasps (``--action static-grasp``): the push-grasp set-up with no push: the hand preshaped
+to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
+behind the fingertip line to just beyond it. The planner closes without pushing only where
+`planners.tsr.grasped_still` says (the region needs no push and the centre is
+`STATIC_GRASP_DEPTH` behind the line); poses the region holds without a push but nearer the
+line are counted apart as ``failures_at_edge``. A push-grasp's validation pushes every pose to
+the palm, so it never tests this part of the region.
+
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
 `PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
 2 cm back and up. Starts are found as the planner finds them (its `Arm`: IK from HERB's home, clear
@@ -51,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.experiments.capture_objects import ACTIONS, resolve_kind
+from agents.experiments.capture_objects import ACTIONS, GRASPS, resolve_kind
 from agents.policies.rollout import roll_out
 from agents.runner.jobs import NumberedTrial, config_digest, run_jobs
 from agents.runner.markdown import markdown_table
@@ -71,6 +79,7 @@ from planners.actions.arm import Arm, Free
 from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT, rise_height
 from planners.actions.push_grasp import PUSH_MARGIN
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
+from planners.actions.static_grasp import TSR_DEPTH
 from planners.actions.sweep import SWEEP_RETREAT
 from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, sweep_region
 from planners.hand2d import (
@@ -80,6 +89,7 @@ from planners.hand2d import (
     push_grasp_profile,
     sweep_profile,
 )
+from planners.tsr import grasped_still
 
 DISTANCE = 0.25  # m pushed or swept
 WAYPOINTS = DEFAULT_WAYPOINTS
@@ -87,6 +97,7 @@ PUSH_WAYPOINTS = 10
 LIFT_WAYPOINTS = 4
 GRID_Y = 0.20  # m either side of the hand axis (push-grasps)
 GRID_X = (0.05, 0.45)  # m ahead of hand_base (push-grasps)
+STATIC_MARGIN = 0.01  # m of static-grasp grid beyond the fingertip line
 BOX_ANGLES = 6  # object orientations over [0, pi) for boxes (Fig. 9(d))
 SIDES = {1: "right", -1: "left"}  # a sweep's handedness: the side of the hand that pushes
 SWEEP_MARGIN = 0.03  # m of sweep grid beyond the hand's span and beyond the region's reach
@@ -147,6 +158,15 @@ def grid(
     return mesh.reshape(-1, 3)
 
 
+def static_grid(spec: ObjectSpec, region: CaptureRegion, trials: int) -> np.ndarray:
+    """Hand-frame poses where a static grasp may put the object: from the planner's TSR depth
+    behind the fingertip line to `STATIC_MARGIN` beyond it, across the gap between the
+    fingertips (poses overlapping the fingers are skipped)."""
+    line = region.grasp_line
+    xs = (line - TSR_DEPTH, line + STATIC_MARGIN)
+    return grid(spec, trials, xs, (-region.half_gap, region.half_gap))
+
+
 def sweep_grid(spec: ObjectSpec, region: SweepRegion, trials: int) -> np.ndarray:
     """Sweep-frame poses from just clear of the hand's side where it is flattest (the palm and
     the plate flush with it; poses overlapping the fingers are skipped) to `SWEEP_MARGIN` beyond
@@ -177,8 +197,11 @@ class Setup:
     distance: float = DISTANCE  # m the hand moves along the frame's x
 
 
-def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
-    """A reachable straight push along heading `rotation_deg` (0 = the robot's forward)."""
+def plan_push(
+    spec: ObjectSpec, aperture: float, rotation_deg: float, distance: float = DISTANCE
+) -> Setup:
+    """A reachable straight push of ``distance`` along heading `rotation_deg` (0 = the robot's
+    forward), then close and lift; with no distance, a static grasp: close where it stands."""
     kinematics = ArmKinematics("right")
     heading = math.radians(rotation_deg)
     direction = np.array([math.cos(heading), math.sin(heading), 0.0])
@@ -198,8 +221,12 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
             q0 = kinematics.solve_ik(pose(start_tcp))
             if q0 is None:
                 continue
-            end_tcp = start_tcp + DISTANCE * direction
-            push = kinematics.cartesian_path(q0, pose(end_tcp), PUSH_WAYPOINTS)
+            end_tcp = start_tcp + distance * direction
+            push = (
+                kinematics.cartesian_path(q0, pose(end_tcp), PUSH_WAYPOINTS)
+                if distance > 0
+                else np.asarray(q0)[None]
+            )
             if push is None:
                 continue
             lift = kinematics.cartesian_path(
@@ -216,7 +243,10 @@ def plan_push(spec: ObjectSpec, aperture: float, rotation_deg: float) -> Setup:
             )
             (action,) = push_grasp.actions(WAYPOINTS)
             frame = Frame2D((float(x), float(y)), heading)
-            return Setup("push-grasp", rotation_deg, 1, frame, aperture, _floats(q0), (action,))
+            kind = "push-grasp" if distance > 0 else "static-grasp"
+            return Setup(
+                kind, rotation_deg, 1, frame, aperture, _floats(q0), (action,), distance=distance
+            )
     raise RuntimeError(f"no reachable straight push at heading {rotation_deg} deg")
 
 
@@ -570,12 +600,13 @@ def _jobs(
     """The region validated, the grid, the set-ups and one job per trial: every grid pose at
     every rotation (sweeps: with each side, from the first of its starts that runs it)."""
     poses: np.ndarray
-    if action == "push-grasp":
-        region: CaptureRegion | SweepRegion = push_grasp_region(
-            spec.footprint, aperture or default_aperture(spec.footprint)
-        )
-        poses = grid(spec, trials)
-        runs = [[plan_push(spec, region.aperture, r)] for r in rotations]
+    if action in GRASPS:
+        grasp = push_grasp_region(spec.footprint, aperture or default_aperture(spec.footprint))
+        static = action == "static-grasp"
+        poses = static_grid(spec, grasp, trials) if static else grid(spec, trials)
+        region: CaptureRegion | SweepRegion = grasp
+        distance = 0.0 if static else DISTANCE
+        runs = [[plan_push(spec, region.aperture, r, distance)] for r in rotations]
     else:
         region = sweep_region(spec.footprint)
         poses = sweep_grid(spec, region, trials)
@@ -590,12 +621,18 @@ def _jobs(
 
 
 def predictions(
-    region: CaptureRegion | SweepRegion, poses: np.ndarray
+    region: CaptureRegion | SweepRegion, poses: np.ndarray, action: str = "push-grasp"
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Which grid poses the region predicts a success for, and which push-grasp poses are in
-    the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added (the edge)."""
+    """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
+    poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
+    grasps the region holds without a push but within `STATIC_GRASP_DEPTH` of the fingertip
+    line, where the planner does not close without pushing."""
     if isinstance(region, SweepRegion):
         return region.query(poses, DISTANCE)[0], np.zeros(len(poses), dtype=bool)
+    if action == "static-grasp":
+        predicted = grasped_still(region, poses)
+        inside, push = region.query(poses)
+        return predicted, inside & (push <= 0.0) & ~predicted
     predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)
     return predicted, region.contains(poses, DISTANCE) & ~predicted
 
@@ -616,14 +653,14 @@ def validate(
         raise ValueError(f"--action: {action!r}; allowed: {', '.join(ACTIONS)}")
     spec = get_object(resolve_kind(name, action))
     if aperture is not None:
-        if action != "push-grasp":
-            raise ValueError("--aperture: only push-grasps take an aperture (sweeps use one)")
+        if action == "sweep":
+            raise ValueError("--aperture: only grasps take an aperture (sweeps use one)")
         try:
             check_fits(spec.footprint, aperture)
         except ValueError as error:
             raise ValueError(f"--aperture: {error}") from None
     region, poses, setups, jobs = _jobs(spec, action, trials, rotations, aperture)
-    predicted, edge = predictions(region, poses)
+    predicted, edge = predictions(region, poses, action)
     physics = [
         (s.frame, s.start_arm, [a.tobytes() for a in s.actions + s.then], s.anchor) for s in setups
     ]
@@ -654,7 +691,7 @@ def validate(
         "action": action,
         "aperture_m": region.aperture,
         "pushable": spec.pushable,  # whether the planner pushes it (a sweep run decides)
-        "distance_m": DISTANCE,
+        "distance_m": setups[0].distance,
         "grid_points": len(poses),
         "setups": [
             {
