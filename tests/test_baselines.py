@@ -83,6 +83,20 @@ def test_a_static_grasp_needs_the_object_deep_behind_the_fingertips() -> None:
     assert not grasps_every_sample(region, tsr, draw, np.array([[1.0, 0.0, 0.0]]))[0]
 
 
+def test_a_box_is_grasped_without_a_push_wherever_the_region_needs_none() -> None:
+    """A box's face lies flat against the fingertips (the poptart box held in every close
+    within the round objects' margin): no margin behind the fingertip line."""
+    box = get_object("poptart_box")
+    region = push_grasp_region(box.footprint, STRAIGHT_APERTURE)
+    line = push_grasp_profile(STRAIGHT_APERTURE).grasp_line
+    xs = np.linspace(line - 0.08, line, 81)
+    poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    inside, push = region.query(poses)
+    free = inside & (push <= 0.0)
+    assert free[xs > line - STATIC_GRASP_DEPTH].any()  # the band a cylinder may not close in
+    assert (grasped_still(region, poses) == free).all()
+
+
 @pytest.mark.parametrize("noise", ["sigma1", "sigma2"])
 def test_tsr_grasps_a_lone_can_at_low_noise(noise: str) -> None:
     result = plan(LONE_CAN, noise, "tsr")

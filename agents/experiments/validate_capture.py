@@ -16,7 +16,7 @@ lifted 10 cm.
 Static grasps (``--action static-grasp``): the push-grasp set-up with no push: the hand preshaped
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
-`planners.tsr.grasped_still` says (the region needs no push and the centre is
+`planners.tsr.grasped_still` says (the region needs no push and a round object's centre is
 `STATIC_GRASP_DEPTH` behind the line); poses the region holds without a push but nearer the
 line are counted apart as ``failures_at_edge``. A push-grasp's validation pushes every pose to
 the palm, so it never tests this part of the region.
@@ -625,8 +625,8 @@ def predictions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
     poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
-    grasps the region holds without a push but within `STATIC_GRASP_DEPTH` of the fingertip
-    line, where the planner does not close without pushing."""
+    grasps of a round object the region holds without a push but within `STATIC_GRASP_DEPTH` of
+    the fingertip line, where the planner does not close without pushing."""
     if isinstance(region, SweepRegion):
         return region.query(poses, DISTANCE)[0], np.zeros(len(poses), dtype=bool)
     if action == "static-grasp":

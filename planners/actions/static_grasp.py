@@ -21,7 +21,7 @@ from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.capture import CaptureRegion, push_grasp_apertures
 from planners.hand2d import PushGraspProfile, push_grasp_profile
-from planners.tsr import STATIC_GRASP_DEPTH, GraspTSR, grasps_every_sample
+from planners.tsr import GraspTSR, grasps_every_sample, static_grasp_depth
 
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
 TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
@@ -49,6 +49,7 @@ def static_grasp(
         return np.stack([belief.samples, belief.samples])
 
     found: list[float] = []
+    behind_line = static_grasp_depth(spec.footprint)
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
         region = ctx.push_region(spec.footprint, aperture)
@@ -57,7 +58,7 @@ def static_grasp(
             (float(centre[0]), float(centre[1])),
             (base - limit, base + limit),
             (-profile.half_gap, profile.half_gap),
-            (profile.grasp_line - TSR_DEPTH, profile.grasp_line - STATIC_GRASP_DEPTH),
+            (profile.grasp_line - TSR_DEPTH, profile.grasp_line - behind_line),
         )
         draws = _grasping_draws(ctx, arm, name, tsr, region, profile, avoid)
         if not len(draws):
