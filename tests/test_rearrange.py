@@ -322,9 +322,11 @@ def test_a_can_by_the_shelfs_side_wall_is_pulled_out_turned() -> None:
 def test_pushing_moves_no_more_objects_than_pick_and_place() -> None:
     """Shortest plans first: the pushing planner's actions include pick-and-place, so where
     pick-and-place retrieves the goal by moving one object, pushing moves at most one. The
-    benchmark's high_07 at sigma2: the goal's first candidates need a large box and a can moved,
-    and a search that went deep under them ran out of its 20 s."""
-    case = next(c for c in table1_suite().cases if c.label == "high_07" and c.noise == "sigma2")
+    benchmark's high_07 without noise, where pick-and-place moves a can. (It was the sigma2
+    case, where a pushing search that went deep under candidates moving a large box and the can
+    ran out of its 20 s; there pick-and-place no longer plans since a round object is closed on
+    only 15 mm behind the fingertips.)"""
+    case = next(c for c in table1_suite().cases if c.label == "high_07" and c.noise == "sigma1")
     seed = Job(case, "pushing", 0, 0, 120.0).case_seed
     scene = replace(case.scene, noise=case.noise)
     moved = {}
