@@ -15,10 +15,14 @@ from agents.experiments import validate_capture as vc
 from agents.experiments.capture_objects import check_validation
 from agents.figures.capture_region import _view, capture_figure
 from clutter_gym.env import ClutterRetrieveEnv
+from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, get_object
+from clutter_gym.model.reachability import tcp_pose
+from clutter_gym.model.transforms import tilt_of_quaternion
 from clutter_gym.model.world import TABLE
+from planners.actions.pick_and_place import PLACE_ABOVE
 from planners.capture import sweep_region
-from planners.hand2d import default_aperture, push_grasp_profile
+from planners.hand2d import STRAIGHT_APERTURE, default_aperture, push_grasp_profile
 from planners.tsr import STATIC_GRASP_DEPTH
 from tests.helpers import WHITE, assert_picture
 
@@ -252,3 +256,33 @@ def test_sweep_cli_small_run_resumes_and_draws(tmp_path: Path) -> None:
     assert_picture(png, min_width=800, colours=(WHITE, (207, 232, 207)))
     with pytest.raises(ValueError, match="--action sweep"):
         check_validation(report, out, "push-grasp")
+
+
+@pytest.mark.parametrize("angle", [0.0, math.pi / 2])
+def test_a_box_set_down_and_let_go_stays_standing(angle: float) -> None:
+    """Opening the hand reverses each finger from where it stands (the BH-280's worm gears): a
+    poptart box push-grasped, lifted, set back down and let go stays upright on the table.
+    With fingers that first squeezed on toward their old target as the hand opened, both of
+    these were flung off the table or toppled."""
+    spec = get_object("poptart_box")
+    aperture = STRAIGHT_APERTURE
+    setup = replace(vc.plan_push(spec, aperture, 0.0), anchor=(1.05, 0.55, 0.0))
+    env = ClutterRetrieveEnv(waypoints=1)
+    assert vc.start_trial(env, setup, "poptart_box", (0.2, 0.0, angle)) == ""
+    kinematics = ArmKinematics("right")
+    rows = list(setup.actions[0])
+    lifted = kinematics.fk_tcp(rows[-1][:7])[:3, 3]
+    forward = np.array([1.0, 0.0, 0.0])
+    down = lifted - [0.0, 0.0, vc.LIFT - PLACE_ABOVE]
+    lower = kinematics.cartesian_path(rows[-1][:7], tcp_pose(down, forward), 5)
+    back = kinematics.cartesian_path(lower[-1], tcp_pose(down - 0.06 * forward, forward), 4)
+    opened = push_grasp_profile(aperture).closure
+    rows += [np.r_[q, 0.0, 1.0] for q in lower[1:]]
+    rows += [np.r_[q, 0.0, opened] for q in (lower[-1], *back[1:])]
+    info: dict[str, object] = {}
+    for row in rows:
+        _, _, terminated, truncated, info = env.step(row[None])
+        assert not (terminated or truncated), info["failure"]
+    _, quaternion = env.sim.base_pose("object")
+    env.close()
+    assert tilt_of_quaternion(quaternion) < vc.UPRIGHT_TILT

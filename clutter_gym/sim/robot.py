@@ -84,6 +84,7 @@ class Herb:
         for link in (*self.finger_links["f1"], *self.finger_links["f2"], *self.finger_links["f3"]):
             c.changeDynamics(self.body_id, link, lateralFriction=FINGER_FRICTION)
         c.changeDynamics(self.body_id, self.palm_link, lateralFriction=FINGER_FRICTION)
+        self._closure = 0.0  # the last closure commanded
 
     # --- state ------------------------------------------------------------------------------
     def reset(self, arm_q: np.ndarray, hand: HandCommand = OPEN_HAND) -> None:
@@ -93,6 +94,7 @@ class Herb:
             c.resetJointState(self.body_id, j, float(q))
         for j, q in zip(self.hand, hand_targets(hand), strict=True):
             c.resetJointState(self.body_id, j, float(q))
+        self._closure = hand.closure
         self.command(np.asarray(arm_q, dtype=np.float64), hand)
 
     def arm_state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -124,10 +126,17 @@ class Herb:
             forces=list(hm.ARM_EFFORT_LIMITS),
             positionGains=[ARM_POSITION_GAIN] * 7,
         )
+        targets = hand_targets(hand)
+        if hand.closure < self._closure:
+            # Opening: the BH-280's worm gears reverse from where each link stands; a finger
+            # stalled on an object does not first keep squeezing toward its old target.
+            fingers = [s[0] for s in c.getJointStates(self.body_id, self.hand[2:])]
+            targets[2:] = np.minimum(targets[2:], fingers)
+        self._closure = hand.closure
         c.setJointMotorControlArray(
             self.body_id,
             self.hand,
             pybullet.POSITION_CONTROL,
-            targetPositions=hand_targets(hand).tolist(),
+            targetPositions=targets.tolist(),
             forces=self._hand_forces.tolist(),
         )
