@@ -15,6 +15,7 @@ push (`planners.tsr.grasped_still`), and sweeps."""
 REGION_ACTIONS = ("push-grasp", "sweep")
 """The actions whose capture regions are drawn."""
 GRASPS = ("push-grasp", "static-grasp")
+"""The actions that close the hand on the object and lift it (it must be graspable)."""
 ALIASES = {"can": "soda_can", "bottle": "juice_bottle", "poptart": "poptart_box"}
 
 

@@ -604,9 +604,9 @@ def _jobs(
         grasp = push_grasp_region(spec.footprint, aperture or default_aperture(spec.footprint))
         static = action == "static-grasp"
         poses = static_grid(spec, grasp, trials) if static else grid(spec, trials)
-        region: CaptureRegion | SweepRegion = grasp
         distance = 0.0 if static else DISTANCE
-        runs = [[plan_push(spec, region.aperture, r, distance)] for r in rotations]
+        runs = [[plan_push(spec, grasp.aperture, r, distance)] for r in rotations]
+        region: CaptureRegion | SweepRegion = grasp
     else:
         region = sweep_region(spec.footprint)
         poses = sweep_grid(spec, region, trials)
