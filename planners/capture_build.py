@@ -21,7 +21,7 @@ import numpy as np
 
 from clutter_gym.model.files import atomic_write_bytes, cache_dir
 from clutter_gym.model.objects import Footprint
-from planners.hand2d import PushGraspProfile, SweepProfile
+from planners.hand2d import PushGraspProfile, SweepProfile, grasp_depth
 from planners.push_simulation import PushState, simulate_push
 from planners.pushing import DiscPressure, RectanglePressure, RimPressure, SampledPressure
 
@@ -135,6 +135,11 @@ def build_push_grasp(
     poses = grid.poses
     total = len(poses)
     tip_r = hand.pusher.circles[0].radius
+    # Captured: the centre within the gap and behind the line at which closing fingers hold
+    # an object that nothing touches (`grasp_depth` behind the fingertips for a cylinder), or
+    # behind the fingertips while carried by the hand (in a V preshape the palm itself stands
+    # closer to the fingertip line than that); settled against the hand from then on.
+    line = hand.grasp_line - grasp_depth(footprint)
     captured = np.zeros(total, dtype=bool)
     s_cap = np.zeros(total)
     s_req = np.full(total, np.inf)
@@ -145,11 +150,12 @@ def build_push_grasp(
         first = state.touching & np.isinf(s_contact[ids])
         s_contact[ids[first]] = np.maximum(s[first] - settings.step, 0.0)
         x = state.poses[:, 0]
-        now = (x <= hand.grasp_line) & (np.abs(state.poses[:, 1]) <= hand.half_gap)
+        carried = state.stationary & (x <= hand.grasp_line)
+        now = ((x <= line) | carried) & (np.abs(state.poses[:, 1]) <= hand.half_gap)
         new = now & ~captured[ids]
-        # A free jump is a pure translation along -x: it crossed the grasp line exactly
-        # grasp_line - x ago. In contact, keep the step's end (at most one step late).
-        late = np.where(state.touching, 0.0, hand.grasp_line - x)
+        # A free jump is a pure translation along -x: it crossed the line exactly line - x
+        # ago. In contact, keep the step's end (at most one step late).
+        late = np.where(state.touching, 0.0, line - x)
         s_cap[ids[new]] = (s - late)[new]
         captured[ids] = now
         settled = state.stationary
@@ -227,6 +233,9 @@ def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: Captu
         "aperture": aperture,
         "settings": asdict(settings),
     }
+    depth = grasp_depth(footprint) if kind == "push_grasp" else 0.0
+    if depth:  # only where it is not zero: the box regions built before it keep their keys
+        spec["grasp_depth"] = depth
     return json.dumps(spec, sort_keys=True)
 
 

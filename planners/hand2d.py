@@ -214,6 +214,28 @@ def push_grasp_profile(aperture: float) -> PushGraspProfile:
     )
 
 
+GRASP_DEPTH = 0.015
+"""m a round object's centre must stand behind the fingertip line (``grasp_line``) for closing
+fingers to hold it: fingertips that meet a cylinder in front of its centre squeeze it out
+forward. Measured in pybullet (`clutter-gym validate-capture --action static-grasp --aperture
+all`, docs/results/capture_static.md): with the centre within 15 mm of the line, a juice bottle
+toppled or was flung off the table in 53 of 554 closes at the 0.10-0.156 m preshapes, and behind
+that it held in all 868 (the can held everywhere, the narrower and shorter cylinder). A box's
+face lies flat against the fingers: the poptart box held in all 120 closes within the 15 mm, so
+boxes need no margin. A push-grasp's capture region counts a cylinder that nothing touches as
+captured only this far behind the line (`planners.capture_build.build_push_grasp`): a push that
+ends as the centre just crosses the line leaves it there (Table 1 high_04 sigma2, a bottle the
+fingers flung off the table). One carried by the hand is captured behind the line itself: in
+the V preshapes the palm stands 5-12 mm behind the fingertip line for the bottle and the can,
+and pushed to the palm every one held."""
+
+
+def grasp_depth(footprint: Footprint) -> float:
+    """m behind the fingertip line an object's centre must be for the closing fingers to hold
+    it (`GRASP_DEPTH` for a cylinder, none for a box)."""
+    return GRASP_DEPTH if footprint.shape == "circle" else 0.0
+
+
 WRIST_END = -hm.HAND_MOUNT_XYZ[2]
 """Approach-axis coordinate of the wrist link's end (the WAM's wrist centre) from hand_base."""
 

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.capture import CaptureRegion
 
@@ -50,33 +49,12 @@ class GraspTSR:
         return Frame2D((float(origin[0]), float(origin[1])), heading)
 
 
-STATIC_GRASP_DEPTH = 0.015
-"""m a round object's centre must stand behind the fingertip line (the region's ``grasp_line``)
-for fingers closing on it without a push to hold it: fingertips that meet a cylinder in front of
-its centre squeeze it out forward. Measured in pybullet (`clutter-gym validate-capture --action
-static-grasp --aperture all`, docs/results/capture_static.md): where the region needs no push but
-the centre is within 15 mm of the line, a juice bottle toppled or was flung off the table in 53
-of 554 closes at the 0.10-0.156 m preshapes, and behind that it held in all 868 (the can held
-everywhere, the narrower and shorter cylinder). A box's face lies flat against the fingers: the
-poptart box held in all 120 closes within the 15 mm, so boxes need no margin. The planner first
-met it as a pick-and-place of a bottle 8 mm behind the line that flung it off the table (Table 1
-high_04, no noise). A push ends every sample at least `PUSH_MARGIN` deeper than the region needs,
-so only grasps without a push need this."""
-
-
-def static_grasp_depth(footprint: Footprint) -> float:
-    """m behind the fingertip line an object's centre must be for a grasp without a push."""
-    return STATIC_GRASP_DEPTH if footprint.shape == "circle" else 0.0
-
-
 def grasped_still(region: CaptureRegion, in_hand: np.ndarray) -> np.ndarray:
     """Which object poses (N, 3) in the hand frame the fingers grasp by closing where the hand
-    stands, with no push: in the region, needing no push, and a round object's centre
-    `STATIC_GRASP_DEPTH` behind the fingertip line."""
-    in_hand = np.asarray(in_hand, dtype=float).reshape(-1, 3)
-    inside, push = region.query(in_hand)
-    deep = in_hand[:, 0] <= region.grasp_line - static_grasp_depth(region.footprint)
-    return np.asarray(inside & (push <= 0.0) & deep)
+    stands, with no push: in the region and needing no push (the region holds a round object
+    only `planners.hand2d.GRASP_DEPTH` behind the fingertip line)."""
+    inside, push = region.query(np.asarray(in_hand, dtype=float).reshape(-1, 3))
+    return np.asarray(inside & (push <= 0.0))
 
 
 def grasps_every_sample(

@@ -17,9 +17,9 @@ from clutter_gym.model.scene import Scene, load_scene, scene_from_dict
 from clutter_gym.model.world import TABLE
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_region
-from planners.hand2d import STRAIGHT_APERTURE, push_grasp_profile
+from planners.hand2d import GRASP_DEPTH, STRAIGHT_APERTURE, push_grasp_profile
 from planners.rearrange import Plan, plan_retrieval
-from planners.tsr import STATIC_GRASP_DEPTH, GraspTSR, grasped_still, grasps_every_sample
+from planners.tsr import GraspTSR, grasped_still, grasps_every_sample
 from planners.uncertainty import ObjectBelief, sample_count, sample_poses
 from tests.helpers import lone_can
 
@@ -66,16 +66,16 @@ def test_a_static_grasp_holds_a_centred_can_and_not_a_spread_of_poses() -> None:
 
 
 def test_a_static_grasp_needs_the_object_deep_behind_the_fingertips() -> None:
-    """Between the fingertips but just behind their line the region needs no push, yet closing
-    there flung a juice bottle (validate-capture --action static-grasp): not a static grasp."""
+    """Between the fingertips but just behind their line, closing flung a juice bottle
+    (validate-capture --action static-grasp): the region asks for a push there, none deeper."""
     bottle = get_object("juice_bottle")
     aperture = 0.1  # the narrowest preshape, where the bottle was flung
     region = push_grasp_region(bottle.footprint, aperture)
     line = push_grasp_profile(aperture).grasp_line
-    near = np.array([[line - STATIC_GRASP_DEPTH / 2, 0.0, 0.0]])
-    deep = np.array([[line - STATIC_GRASP_DEPTH - 0.005, 0.0, 0.0]])
+    near = np.array([[line - GRASP_DEPTH / 2, 0.0, 0.0]])
+    deep = np.array([[line - GRASP_DEPTH - 0.005, 0.0, 0.0]])
     inside, push = region.query(near)
-    assert inside[0] and push[0] == 0.0  # the region alone would close here
+    assert inside[0] and push[0] == pytest.approx(GRASP_DEPTH / 2, abs=0.0025)
     assert not grasped_still(region, near)[0]
     assert grasped_still(region, deep)[0]
     tsr = GraspTSR((1.0, 0.0), (0.0, 0.0), (0.0, 0.0), (near[0, 0], near[0, 0]))
@@ -93,7 +93,7 @@ def test_a_box_is_grasped_without_a_push_wherever_the_region_needs_none() -> Non
     poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
     inside, push = region.query(poses)
     free = inside & (push <= 0.0)
-    assert free[xs > line - STATIC_GRASP_DEPTH].any()  # the band a cylinder may not close in
+    assert free[xs > line - GRASP_DEPTH].any()  # the band a cylinder may not close in
     assert (grasped_still(region, poses) == free).all()
 
 

@@ -14,6 +14,7 @@ from clutter_gym.model.objects import OBJECTS, Footprint
 from planners.capture import CaptureRegion, push_grasp_apertures, push_grasp_region, sweep_region
 from planners.capture_build import SHIPPED_DIR, CaptureSettings, cache_name
 from planners.hand2d import (
+    GRASP_DEPTH,
     MAX_APERTURE,
     PROXIMAL_STRAIGHT,
     STRAIGHT_APERTURE,
@@ -38,14 +39,15 @@ def test_known_points(can_region: CaptureRegion) -> None:
         [
             [g + 0.2, 0.0, 0.0],  # on the centre line in front of the palm
             [g + 0.2, 0.4, 0.0],  # far to the side
-            [g - 0.02, 0.0, 1.0],  # already between the fingers, past the grasp line
+            [g - 0.02, 0.0, 1.0],  # already between the fingers, GRASP_DEPTH past the line
             [g + 1.5, 0.0, 0.0],  # beyond D_max
             [0.05, 0.0, 0.0],  # inside the palm
         ]
     )
     inside, d = can_region.query(poses)
     assert inside.tolist() == [True, False, True, False, False]
-    assert d[0] == pytest.approx(0.2, abs=2e-3)
+    # Pushed until its centre is GRASP_DEPTH behind the fingertips, where closing holds it.
+    assert d[0] == pytest.approx(0.2 + GRASP_DEPTH, abs=2e-3)
     assert d[2] == 0.0
     assert np.isinf(d[1])
 

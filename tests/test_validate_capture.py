@@ -22,8 +22,7 @@ from clutter_gym.model.transforms import tilt_of_quaternion
 from clutter_gym.model.world import TABLE
 from planners.actions.pick_and_place import PLACE_ABOVE
 from planners.capture import sweep_region
-from planners.hand2d import STRAIGHT_APERTURE, default_aperture, push_grasp_profile
-from planners.tsr import STATIC_GRASP_DEPTH
+from planners.hand2d import GRASP_DEPTH, STRAIGHT_APERTURE, default_aperture, push_grasp_profile
 from tests.helpers import WHITE, assert_picture
 
 
@@ -171,16 +170,23 @@ def test_failures_in_the_planners_push_margin_are_counted_apart() -> None:
     assert summary["tightness"] == pytest.approx(0.5)
 
 
-def test_push_grasp_validation_predicts_as_the_planner_pushes() -> None:
-    """A pose is predicted inside only if the region's push plus the planner's margin fits."""
+def test_push_grasp_validation_predicts_and_pushes_as_the_planner_does() -> None:
+    """A pose is predicted inside only if the region's push plus the planner's margin fits,
+    and is pushed that far (never further: the planner stops there); the rest `DISTANCE`."""
     spec = vc.get_object("soda_can")
-    region, poses, _, _ = vc._jobs(spec, "push-grasp", 250, (0.0,), None)
+    region, poses, _, jobs = vc._jobs(spec, "push-grasp", 250, (0.0,), None)
+    assert isinstance(region, vc.CaptureRegion)
     predicted, edge = vc.predictions(region, poses)
     need = region.query(poses)[1]
     inside = region.contains(poses, vc.DISTANCE)
-    assert edge.any() and not (predicted & edge).any() and ((predicted | edge) == inside).all()
+    assert predicted.any() and not (predicted & edge).any() and ((predicted | edge) == inside).all()
     assert (need[predicted] <= vc.DISTANCE - vc.PUSH_MARGIN).all()
     assert (need[edge] > vc.DISTANCE - vc.PUSH_MARGIN).all()
+    pushed = np.array([job.setup.distance for job in jobs])
+    planner = need[predicted] + vc.PUSH_MARGIN
+    assert (pushed[predicted] <= planner + 1e-9).all()
+    assert (pushed[predicted] > planner - vc.DISTANCE_STEP).all()
+    assert len(set(pushed[predicted])) > 5 and (pushed[~predicted] == vc.DISTANCE).all()
 
 
 def test_static_grasp_validation_predicts_as_the_planner_closes() -> None:
@@ -193,9 +199,9 @@ def test_static_grasp_validation_predicts_as_the_planner_closes() -> None:
     inside, push = region.query(poses)
     line = region.grasp_line
     assert predicted.any() and edge.any() and not (predicted & edge).any()
-    assert ((predicted | edge) == (inside & (push <= 0.0))).all()
-    assert (poses[predicted, 0] <= line - STATIC_GRASP_DEPTH).all()
-    assert (poses[edge, 0] > line - STATIC_GRASP_DEPTH).all()
+    assert (predicted == (inside & (push <= 0.0))).all()
+    assert (poses[predicted, 0] <= line - GRASP_DEPTH).all()
+    assert (poses[edge, 0] > line - GRASP_DEPTH).all() and (poses[edge, 0] <= line).all()
     assert poses[:, 0].max() > line  # the grid runs past the fingertips
     assert [s.distance for s in setups] == [0.0]
 

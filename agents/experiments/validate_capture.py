@@ -1,25 +1,25 @@
 """`clutter-gym validate-capture`: capture regions against physics, the analogue of Fig. 11.
 
 Each trial places one object at a grid pose of the region's frame in the pybullet env, starts the
-arm where the action starts and executes the whole action with the simulated arm and hand. The
-capture region predicts success when the pose lies in its region of `DISTANCE`; a push-grasp
-region is tested as the planner uses it, which always pushes `PUSH_MARGIN` beyond the distance
-the region asks for, so it predicts success where it asks for at most `DISTANCE - PUSH_MARGIN`
-(failures in that last margin, where the object only just reaches the palm, are counted apart as
-``failures_at_edge``). The report counts predicted-inside failures (must be 0: the regions are
-conservative) and the tightness: the share of physical successes the region predicts.
+arm where the action starts and executes the whole action with the simulated arm and hand. A
+push-grasp region is tested as the planner uses it: where the region predicts a capture (it asks
+for at most `DISTANCE - PUSH_MARGIN`), the hand pushes what the planner would push, the
+region's distance plus `PUSH_MARGIN` (rounded down to `DISTANCE_STEP`: never further than the
+planner), and closes there; elsewhere it pushes `DISTANCE`, which tells the physical successes
+the region leaves out (the poses it holds only within the last margin of `DISTANCE` are counted
+apart as ``failures_at_edge``). The report counts predicted-inside failures (must be 0: the
+regions are conservative) and the tightness: the share of physical successes the region predicts.
 
-Push-grasps (``--action push-grasp``): the hand preshaped to the region's aperture, a straight push
-of `DISTANCE`, closing the fingers, a 15 cm lift. Success is the env's: held by finger contact and
-lifted 10 cm.
+Push-grasps (``--action push-grasp``): the hand preshaped to the region's aperture, a straight
+push (`push_distances`), closing the fingers, a 15 cm lift. Success is the env's: held by finger
+contact and lifted 10 cm.
 
 Static grasps (``--action static-grasp``): the push-grasp set-up with no push: the hand preshaped
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
 `planners.tsr.grasped_still` says (the region needs no push and a round object's centre is
-`STATIC_GRASP_DEPTH` behind the line); poses the region holds without a push but nearer the
-line are counted apart as ``failures_at_edge``. A push-grasp's validation pushes every pose to
-the palm, so it never tests this part of the region.
+`planners.hand2d.GRASP_DEPTH` behind the line); the poses within that depth of the line and
+between the fingertips are counted apart as ``failures_at_edge``.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
 `PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
@@ -86,12 +86,14 @@ from planners.hand2d import (
     check_fits,
     closure_for_aperture,
     default_aperture,
+    grasp_depth,
     push_grasp_profile,
     sweep_profile,
 )
 from planners.tsr import grasped_still
 
 DISTANCE = 0.25  # m pushed or swept
+DISTANCE_STEP = 0.005  # m: the planner's push distances are rounded down to this
 WAYPOINTS = DEFAULT_WAYPOINTS
 PUSH_WAYPOINTS = 10
 LIFT_WAYPOINTS = 4
@@ -604,13 +606,23 @@ def _jobs(
         grasp = push_grasp_region(spec.footprint, aperture or default_aperture(spec.footprint))
         static = action == "static-grasp"
         poses = static_grid(spec, grasp, trials) if static else grid(spec, trials)
-        distance = 0.0 if static else DISTANCE
-        runs = [[plan_push(spec, grasp.aperture, r, distance)] for r in rotations]
-        region: CaptureRegion | SweepRegion = grasp
-    else:
-        region = sweep_region(spec.footprint)
-        poses = sweep_grid(spec, region, trials)
-        runs = [plan_sweeps(spec, region, r, side, poses) for r in rotations for side in SIDES]
+        distances = np.zeros(len(poses)) if static else push_distances(grasp, poses)
+        plans = [
+            {d: plan_push(spec, grasp.aperture, r, d) for d in sorted(set(distances.tolist()))}
+            for r in rotations
+        ]
+        runs = [[plan[d] for d in distances.tolist()] for plan in plans]
+        jobs = [
+            ValidationJob(
+                i * len(poses) + j, spec.kind, setup, (float(p[0]), float(p[1]), float(p[2]))
+            )
+            for i, setups in enumerate(runs)
+            for j, (p, setup) in enumerate(zip(poses, setups, strict=True))
+        ]
+        return grasp, poses, [s for plan in plans for s in plan.values()], jobs
+    region = sweep_region(spec.footprint)
+    poses = sweep_grid(spec, region, trials)
+    runs = [plan_sweeps(spec, region, r, side, poses) for r in rotations for side in SIDES]
     jobs = []
     for i, setups in enumerate(runs):
         for j, p in enumerate(poses):
@@ -620,19 +632,33 @@ def _jobs(
     return region, poses, [s for setups in runs for s in setups], jobs
 
 
+def push_distances(region: CaptureRegion, poses: np.ndarray) -> np.ndarray:
+    """m the hand pushes each grid pose (N,): where the region predicts a capture, what the
+    planner pushes (the region's distance plus `PUSH_MARGIN`), rounded down to
+    `DISTANCE_STEP` (a set-up per distance; never further than the planner); `DISTANCE`
+    elsewhere."""
+    inside, need = region.query(poses)
+    planned = need + PUSH_MARGIN
+    predicted = inside & (planned <= DISTANCE + 1e-12)
+    steps = np.floor(np.where(predicted, planned, DISTANCE) / DISTANCE_STEP + 1e-9)
+    return np.where(predicted, np.round(steps * DISTANCE_STEP, 6), DISTANCE)
+
+
 def predictions(
     region: CaptureRegion | SweepRegion, poses: np.ndarray, action: str = "push-grasp"
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
     poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
-    grasps of a round object the region holds without a push but within `STATIC_GRASP_DEPTH` of
-    the fingertip line, where the planner does not close without pushing."""
+    grasps of a round object with its centre between the fingertips and within `GRASP_DEPTH` of
+    their line, where the planner does not close without pushing."""
     if isinstance(region, SweepRegion):
         return region.query(poses, DISTANCE)[0], np.zeros(len(poses), dtype=bool)
     if action == "static-grasp":
         predicted = grasped_still(region, poses)
-        inside, push = region.query(poses)
-        return predicted, inside & (push <= 0.0) & ~predicted
+        line = region.grasp_line
+        band = (poses[:, 0] > line - grasp_depth(region.footprint)) & (poses[:, 0] <= line)
+        between = np.abs(poses[:, 1]) <= push_grasp_profile(region.aperture).half_gap
+        return predicted, band & between & ~predicted
     predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)
     return predicted, region.contains(poses, DISTANCE) & ~predicted
 
@@ -691,7 +717,7 @@ def validate(
         "action": action,
         "aperture_m": region.aperture,
         "pushable": spec.pushable,  # whether the planner pushes it (a sweep run decides)
-        "distance_m": setups[0].distance,
+        "distance_m": DISTANCE,  # at most; a predicted push-grasp pushes the planner's distance
         "grid_points": len(poses),
         "setups": [
             {

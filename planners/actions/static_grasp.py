@@ -20,8 +20,8 @@ from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.capture import CaptureRegion, push_grasp_apertures
-from planners.hand2d import PushGraspProfile, push_grasp_profile
-from planners.tsr import GraspTSR, grasps_every_sample, static_grasp_depth
+from planners.hand2d import PushGraspProfile, grasp_depth, push_grasp_profile
+from planners.tsr import GraspTSR, grasps_every_sample
 
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
 TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
@@ -49,7 +49,7 @@ def static_grasp(
         return np.stack([belief.samples, belief.samples])
 
     found: list[float] = []
-    behind_line = static_grasp_depth(spec.footprint)
+    behind_line = grasp_depth(spec.footprint)
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
         region = ctx.push_region(spec.footprint, aperture)
