@@ -136,10 +136,9 @@ def build_push_grasp(
     total = len(poses)
     tip_r = hand.pusher.circles[0].radius
     # Captured: the centre within the gap and behind the line at which closing fingers hold
-    # an object that nothing touches (`grasp_depth` behind the fingertips for a cylinder), or
-    # behind the fingertips while carried by the hand (in a V preshape the palm itself stands
-    # closer to the fingertip line than that); settled against the hand from then on.
-    line = hand.grasp_line - grasp_depth(footprint)
+    # an object that nothing touches (`grasp_depth` behind the fingertips), or behind the
+    # fingertips while carried by the hand; settled against the hand from then on.
+    line = hand.grasp_line - grasp_depth(footprint, hand.aperture)
     captured = np.zeros(total, dtype=bool)
     s_cap = np.zeros(total)
     s_req = np.full(total, np.inf)
@@ -233,8 +232,8 @@ def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: Captu
         "aperture": aperture,
         "settings": asdict(settings),
     }
-    depth = grasp_depth(footprint) if kind == "push_grasp" else 0.0
-    if depth:  # only where it is not zero: the box regions built before it keep their keys
+    depth = grasp_depth(footprint, aperture) if kind == "push_grasp" else 0.0
+    if depth:  # only where it is not zero: the regions built before it keep their keys
         spec["grasp_depth"] = depth
     return json.dumps(spec, sort_keys=True)
 

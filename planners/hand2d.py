@@ -215,25 +215,26 @@ def push_grasp_profile(aperture: float) -> PushGraspProfile:
 
 
 GRASP_DEPTH = 0.015
-"""m a round object's centre must stand behind the fingertip line (``grasp_line``) for closing
-fingers to hold it: fingertips that meet a cylinder in front of its centre squeeze it out
-forward. Measured in pybullet (`clutter-gym validate-capture --action static-grasp --aperture
-all`, docs/results/capture_static.md): with the centre within 15 mm of the line, a juice bottle
-toppled or was flung off the table in 53 of 554 closes at the 0.10-0.156 m preshapes, and behind
-that it held in all 868 (the can held everywhere, the narrower and shorter cylinder). A box's
-face lies flat against the fingers: the poptart box held in all 120 closes within the 15 mm, so
-boxes need no margin. A push-grasp's capture region counts a cylinder that nothing touches as
-captured only this far behind the line (`planners.capture_build.build_push_grasp`): a push that
-ends as the centre just crosses the line leaves it there (Table 1 high_04 sigma2, a bottle the
-fingers flung off the table). One carried by the hand is captured behind the line itself: in
-the V preshapes the palm stands 5-12 mm behind the fingertip line for the bottle and the can,
-and pushed to the palm every one held."""
+"""m a round object's centre must stand behind the fingertip line (``grasp_line``) for fingers
+closing from a preshape narrower than `STRAIGHT_APERTURE` to hold it: their fingertips, leaning
+inward, meet a cylinder in front of its centre and squeeze it out forward. Measured in pybullet
+(`clutter-gym validate-capture --action static-grasp --aperture all`,
+docs/results/capture_static.md): with the centre within 15 mm of the line, a juice bottle
+toppled or was flung off the table in 53 of 214 closes at the 0.100-0.156 m preshapes, in none
+of 340 at the straight and V preshapes (0.192-0.275 m), whose fingers wrap around it; behind the
+15 mm every close held, and the can held everywhere. A box's face lies flat against the fingers
+(the poptart box held in all 120 closes within 15 mm), so boxes need no margin. A push-grasp's
+capture region counts a cylinder that nothing touches as captured only this far behind the line
+(`planners.capture_build.build_push_grasp`): a push that ends as the centre just crosses it
+leaves it there (Table 1 high_04 sigma2, a bottle the fingers flung off the table at 0.12 m)."""
 
 
-def grasp_depth(footprint: Footprint) -> float:
-    """m behind the fingertip line an object's centre must be for the closing fingers to hold
-    it (`GRASP_DEPTH` for a cylinder, none for a box)."""
-    return GRASP_DEPTH if footprint.shape == "circle" else 0.0
+def grasp_depth(footprint: Footprint, aperture: float) -> float:
+    """m behind the fingertip line an object's centre must be for fingers closing from
+    ``aperture`` to hold it: `GRASP_DEPTH` for a cylinder in a preshape narrower than the
+    straight one, none otherwise."""
+    narrow = aperture < STRAIGHT_APERTURE - 1e-9
+    return GRASP_DEPTH if footprint.shape == "circle" and narrow else 0.0
 
 
 WRIST_END = -hm.HAND_MOUNT_XYZ[2]

@@ -18,8 +18,9 @@ Static grasps (``--action static-grasp``): the push-grasp set-up with no push: t
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
 `planners.tsr.grasped_still` says (the region needs no push and a round object's centre is
-`planners.hand2d.GRASP_DEPTH` behind the line); the poses within that depth of the line and
-between the fingertips are counted apart as ``failures_at_edge``.
+`planners.hand2d.GRASP_DEPTH` behind the line in the preshapes narrower than the straight one);
+the poses within that depth of the line and between the fingertips are counted apart as
+``failures_at_edge``.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
 `PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
@@ -656,7 +657,8 @@ def predictions(
     if action == "static-grasp":
         predicted = grasped_still(region, poses)
         line = region.grasp_line
-        band = (poses[:, 0] > line - grasp_depth(region.footprint)) & (poses[:, 0] <= line)
+        depth = grasp_depth(region.footprint, region.aperture)
+        band = (poses[:, 0] > line - depth) & (poses[:, 0] <= line)
         between = np.abs(poses[:, 1]) <= push_grasp_profile(region.aperture).half_gap
         return predicted, band & between & ~predicted
     predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)

@@ -49,7 +49,6 @@ def static_grasp(
         return np.stack([belief.samples, belief.samples])
 
     found: list[float] = []
-    behind_line = grasp_depth(spec.footprint)
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
         region = ctx.push_region(spec.footprint, aperture)
@@ -58,7 +57,10 @@ def static_grasp(
             (float(centre[0]), float(centre[1])),
             (base - limit, base + limit),
             (-profile.half_gap, profile.half_gap),
-            (profile.grasp_line - TSR_DEPTH, profile.grasp_line - behind_line),
+            (
+                profile.grasp_line - TSR_DEPTH,
+                profile.grasp_line - grasp_depth(spec.footprint, aperture),
+            ),
         )
         draws = _grasping_draws(ctx, arm, name, tsr, region, profile, avoid)
         if not len(draws):
