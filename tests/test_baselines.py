@@ -83,6 +83,20 @@ def test_a_static_grasp_needs_the_object_deep_behind_the_fingertips() -> None:
     assert not grasps_every_sample(region, tsr, draw, np.array([[1.0, 0.0, 0.0]]))[0]
 
 
+def test_a_static_grasp_keeps_its_margin_where_closing_needs_none() -> None:
+    """At the straight preshape the fingers hold a bottle just behind their line, so the region
+    needs no push there; a static grasp still keeps GRASP_DEPTH, its margin against a true pose
+    beyond the samples (a bottle 8 mm behind the line left the table in Table 1 high_06)."""
+    bottle = get_object("juice_bottle")
+    region = push_grasp_region(bottle.footprint, STRAIGHT_APERTURE)
+    line = push_grasp_profile(STRAIGHT_APERTURE).grasp_line
+    near = np.array([[line - 0.008, 0.0, 0.0]])
+    inside, push = region.query(near)
+    assert inside[0] and push[0] == 0.0
+    assert not grasped_still(region, near)[0]
+    assert grasped_still(region, near - [GRASP_DEPTH, 0.0, 0.0])[0]
+
+
 def test_a_box_is_grasped_without_a_push_wherever_the_region_needs_none() -> None:
     """A box's face lies flat against the fingertips (the poptart box held in every close
     within the round objects' margin): no margin behind the fingertip line."""

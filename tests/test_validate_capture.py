@@ -193,15 +193,15 @@ def test_static_grasp_validation_predicts_as_the_planner_closes() -> None:
     """Static grasps are predicted where the planner closes without a push; the poses the region
     holds without a push nearer the fingertip line are the edge, counted apart."""
     spec = vc.get_object("juice_bottle")
-    region, poses, setups, _ = vc._jobs(spec, "static-grasp", 300, (0.0,), 0.1)
+    region, poses, setups, _ = vc._jobs(spec, "static-grasp", 300, (0.0,), STRAIGHT_APERTURE)
     assert isinstance(region, vc.CaptureRegion)
     predicted, edge = vc.predictions(region, poses, "static-grasp")
     inside, push = region.query(poses)
     line = region.grasp_line
     assert predicted.any() and edge.any() and not (predicted & edge).any()
-    assert (predicted == (inside & (push <= 0.0))).all()
+    assert ((predicted | edge) == (inside & (push <= 0.0))).all()
     assert (poses[predicted, 0] <= line - GRASP_DEPTH).all()
-    assert (poses[edge, 0] > line - GRASP_DEPTH).all() and (poses[edge, 0] <= line).all()
+    assert (poses[edge, 0] > line - GRASP_DEPTH).all()
     assert poses[:, 0].max() > line  # the grid runs past the fingertips
     assert [s.distance for s in setups] == [0.0]
 

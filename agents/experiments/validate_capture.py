@@ -18,9 +18,8 @@ Static grasps (``--action static-grasp``): the push-grasp set-up with no push: t
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
 `planners.tsr.grasped_still` says (the region needs no push and a round object's centre is
-`planners.hand2d.GRASP_DEPTH` behind the line in the preshapes narrower than the straight one);
-the poses within that depth of the line and between the fingertips are counted apart as
-``failures_at_edge``.
+`planners.tsr.static_grasp_depth` behind the line); poses the region holds without a push but
+nearer the line are counted apart as ``failures_at_edge``.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
 `PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
@@ -87,7 +86,6 @@ from planners.hand2d import (
     check_fits,
     closure_for_aperture,
     default_aperture,
-    grasp_depth,
     push_grasp_profile,
     sweep_profile,
 )
@@ -650,17 +648,14 @@ def predictions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
     poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
-    grasps of a round object with its centre between the fingertips and within `GRASP_DEPTH` of
-    their line, where the planner does not close without pushing."""
+    grasps the region holds without a push that the planner does not close on (a round object
+    within `planners.tsr.static_grasp_depth` of the fingertip line)."""
     if isinstance(region, SweepRegion):
         return region.query(poses, DISTANCE)[0], np.zeros(len(poses), dtype=bool)
     if action == "static-grasp":
         predicted = grasped_still(region, poses)
-        line = region.grasp_line
-        depth = grasp_depth(region.footprint, region.aperture)
-        band = (poses[:, 0] > line - depth) & (poses[:, 0] <= line)
-        between = np.abs(poses[:, 1]) <= push_grasp_profile(region.aperture).half_gap
-        return predicted, band & between & ~predicted
+        inside, push = region.query(poses)
+        return predicted, inside & (push <= 0.0) & ~predicted
     predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)
     return predicted, region.contains(poses, DISTANCE) & ~predicted
 
