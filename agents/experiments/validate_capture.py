@@ -601,6 +601,7 @@ def _jobs(
     """The region validated, the grid, the set-ups and one job per trial: every grid pose at
     every rotation (sweeps: with each side, from the first of its starts that runs it)."""
     poses: np.ndarray
+    region: CaptureRegion | SweepRegion
     if action in GRASPS:
         grasp = push_grasp_region(spec.footprint, aperture or default_aperture(spec.footprint))
         static = action == "static-grasp"
@@ -610,25 +611,23 @@ def _jobs(
             {d: plan_push(spec, grasp.aperture, r, d) for d in sorted(set(distances.tolist()))}
             for r in rotations
         ]
-        runs = [[plan[d] for d in distances.tolist()] for plan in plans]
-        jobs = [
-            ValidationJob(
-                i * len(poses) + j, spec.kind, setup, (float(p[0]), float(p[1]), float(p[2]))
-            )
-            for i, setups in enumerate(runs)
-            for j, (p, setup) in enumerate(zip(poses, setups, strict=True))
+        region, setups = grasp, [s for plan in plans for s in plan.values()]
+        per_pose = [[plan[d] for d in distances.tolist()] for plan in plans]
+    else:
+        region = sweep_region(spec.footprint)
+        poses = sweep_grid(spec, region, trials)
+        runs = [plan_sweeps(spec, region, r, side, poses) for r in rotations for side in SIDES]
+        setups = [s for starts in runs for s in starts]
+        per_pose = [
+            [next((s for s in starts if not runnable(spec, s, p)), starts[0]) for p in poses]
+            for starts in runs
         ]
-        return grasp, poses, [s for plan in plans for s in plan.values()], jobs
-    region = sweep_region(spec.footprint)
-    poses = sweep_grid(spec, region, trials)
-    runs = [plan_sweeps(spec, region, r, side, poses) for r in rotations for side in SIDES]
-    jobs = []
-    for i, setups in enumerate(runs):
-        for j, p in enumerate(poses):
-            pose = (float(p[0]), float(p[1]), float(p[2]))
-            setup = next((s for s in setups if not runnable(spec, s, pose)), setups[0])
-            jobs.append(ValidationJob(i * len(poses) + j, spec.kind, setup, pose))
-    return region, poses, [s for setups in runs for s in setups], jobs
+    jobs = [
+        ValidationJob(i * len(poses) + j, spec.kind, setup, (float(p[0]), float(p[1]), float(p[2])))
+        for i, chosen in enumerate(per_pose)
+        for j, (p, setup) in enumerate(zip(poses, chosen, strict=True))
+    ]
+    return region, poses, setups, jobs
 
 
 def push_distances(region: CaptureRegion, poses: np.ndarray) -> np.ndarray:
@@ -636,10 +635,9 @@ def push_distances(region: CaptureRegion, poses: np.ndarray) -> np.ndarray:
     planner pushes (the region's distance plus `PUSH_MARGIN`), rounded down to
     `DISTANCE_STEP` (a set-up per distance; never further than the planner); `DISTANCE`
     elsewhere."""
-    inside, need = region.query(poses)
-    planned = need + PUSH_MARGIN
-    predicted = inside & (planned <= DISTANCE + 1e-12)
-    steps = np.floor(np.where(predicted, planned, DISTANCE) / DISTANCE_STEP + 1e-9)
+    predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)  # as `predictions` says
+    planned = np.where(predicted, region.query(poses)[1] + PUSH_MARGIN, DISTANCE)
+    steps = np.floor(planned / DISTANCE_STEP + 1e-9)
     return np.where(predicted, np.round(steps * DISTANCE_STEP, 6), DISTANCE)
 
 
