@@ -21,7 +21,7 @@ import numpy as np
 
 from clutter_gym.model.files import atomic_write_bytes, cache_dir
 from clutter_gym.model.objects import Footprint
-from planners.hand2d import PushGraspProfile, SweepProfile, grasp_depth
+from planners.hand2d import PALM_FRONT, PushGraspProfile, SweepProfile, grasp_depth, palm_seat
 from planners.push_simulation import PushState, simulate_push
 from planners.pushing import DiscPressure, RectanglePressure, RimPressure, SampledPressure
 
@@ -137,8 +137,18 @@ def build_push_grasp(
     tip_r = hand.pusher.circles[0].radius
     # Captured: the centre within the gap and behind the line at which closing fingers hold
     # an object that nothing touches (`grasp_depth` behind the fingertips), or behind the
-    # fingertips while carried by the hand; settled against the hand from then on.
+    # fingertips while carried by the hand; settled against the hand from then on. In a V
+    # preshape a box must also have come to the palm (`palm_seat`).
     line = hand.grasp_line - grasp_depth(footprint, hand.aperture)
+    seat = palm_seat(footprint, hand.aperture)
+    hx, hy = footprint.half_extents
+
+    def seat_line(theta: np.ndarray) -> np.ndarray:
+        """The centre's x at which a box at ``theta`` is within the seat of the palm."""
+        if seat is None:
+            return np.full(theta.shape, np.inf)
+        return PALM_FRONT + seat + hx * np.abs(np.cos(theta)) + hy * np.abs(np.sin(theta))
+
     captured = np.zeros(total, dtype=bool)
     s_cap = np.zeros(total)
     s_req = np.full(total, np.inf)
@@ -149,12 +159,14 @@ def build_push_grasp(
         first = state.touching & np.isinf(s_contact[ids])
         s_contact[ids[first]] = np.maximum(s[first] - settings.step, 0.0)
         x = state.poses[:, 0]
-        carried = state.stationary & (x <= hand.grasp_line)
-        now = ((x <= line) | carried) & (np.abs(state.poses[:, 1]) <= hand.half_gap)
+        seated = seat_line(state.poses[:, 2])
+        carried = state.stationary & (x <= np.minimum(hand.grasp_line, seated))
+        crossed = x <= np.minimum(line, seated)
+        now = (crossed | carried) & (np.abs(state.poses[:, 1]) <= hand.half_gap)
         new = now & ~captured[ids]
-        # A free jump is a pure translation along -x: it crossed the line exactly line - x
-        # ago. In contact, keep the step's end (at most one step late).
-        late = np.where(state.touching, 0.0, line - x)
+        # A free jump is a pure translation along -x: it crossed the line exactly
+        # line - x ago. In contact, keep the step's end (at most one step late).
+        late = np.where(state.touching, 0.0, np.minimum(line, seated) - x)
         s_cap[ids[new]] = (s - late)[new]
         captured[ids] = now
         settled = state.stationary
@@ -232,9 +244,11 @@ def _cache_key(kind: str, footprint: Footprint, aperture: float, settings: Captu
         "aperture": aperture,
         "settings": asdict(settings),
     }
-    depth = grasp_depth(footprint, aperture) if kind == "push_grasp" else 0.0
-    if depth:  # only where it is not zero: the regions built before it keep their keys
-        spec["grasp_depth"] = depth
+    if kind == "push_grasp":  # each only where it applies: regions built before keep keys
+        if depth := grasp_depth(footprint, aperture):
+            spec["grasp_depth"] = depth
+        if (seat := palm_seat(footprint, aperture)) is not None:
+            spec["palm_seat"] = seat
     return json.dumps(spec, sort_keys=True)
 
 

@@ -237,6 +237,26 @@ def grasp_depth(footprint: Footprint, aperture: float) -> float:
     return GRASP_DEPTH if footprint.shape == "circle" and narrow else 0.0
 
 
+PALM_FRONT = _K + _D3
+"""Approach-axis coordinate of the palm's front edge for pushing (the knuckle boxes' front)."""
+PALM_SEAT = 0.005
+"""m: how near the palm's front a box's nearest face must be for fingers closing from a V
+preshape to hold it. The V's splayed links can carry a box turned across the hand a couple of
+centimetres ahead of the palm; closing then turns them into it with nothing behind it, and it
+topples. Measured in pybullet (`clutter-gym validate-capture --object poptart_box --aperture
+0.235`, pushed the planner's distance): the poptart box toppled in 3 of 40 closes inside the
+region, each where the 2D model, for some of its friction and pressure sets, had it carried up
+to 2 cm ahead of the palm; pushed on to the palm it held."""
+
+
+def palm_seat(footprint: Footprint, aperture: float) -> float | None:
+    """m a box must come to the palm before a V preshape counts it captured (`PALM_SEAT`), or
+    None where the fingertip line alone decides: cylinders, and every preshape up to the
+    straight one, whose fingers close around a box's sides from behind its centre."""
+    v_shaped = aperture > STRAIGHT_APERTURE + 1e-9
+    return PALM_SEAT if footprint.shape == "box" and v_shaped else None
+
+
 WRIST_END = -hm.HAND_MOUNT_XYZ[2]
 """Approach-axis coordinate of the wrist link's end (the WAM's wrist centre) from hand_base."""
 

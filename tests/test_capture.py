@@ -11,11 +11,19 @@ import numpy as np
 import pytest
 
 from clutter_gym.model.objects import OBJECTS, Footprint
-from planners.capture import CaptureRegion, push_grasp_apertures, push_grasp_region, sweep_region
+from planners.capture import (
+    V_APERTURES,
+    CaptureRegion,
+    push_grasp_apertures,
+    push_grasp_region,
+    sweep_region,
+)
 from planners.capture_build import SHIPPED_DIR, CaptureSettings, cache_name
 from planners.hand2d import (
     GRASP_DEPTH,
     MAX_APERTURE,
+    PALM_FRONT,
+    PALM_SEAT,
     PROXIMAL_STRAIGHT,
     STRAIGHT_APERTURE,
     aperture_for_proximal,
@@ -149,6 +157,30 @@ def test_v_preshapes_capture_wider_spreads(tmp_path: Path) -> None:
     ahead = widest.grasp_line + 0.3
     off_axis = np.array([[ahead, straight.lateral_reach + 0.02, 0.0]])
     assert widest.query(off_axis)[0].all() and not straight.query(off_axis)[0].any()
+
+
+def test_a_v_preshape_counts_a_box_captured_only_at_the_palm() -> None:
+    """Pushed the distance the V region asks, a box rests within PALM_SEAT of the palm under
+    every (mu_c, c), where closing holds it; the pose is one validate-capture saw topple when
+    the region counted it captured on the splayed links 2 cm ahead of the palm."""
+    box = OBJECTS["poptart_box"].footprint
+    hx, hy = box.half_extents
+    region = push_grasp_region(box, V_APERTURES[0])
+    rng = np.random.default_rng(1)
+    poses = np.column_stack(
+        [rng.uniform(0.1, 0.35, 400), rng.uniform(-0.15, 0.15, 400), rng.uniform(0, np.pi, 400)]
+    )
+    inside, need = region.query(poses)
+    toppled = np.array([0.1833, -0.04, np.pi / 3])
+    tested = [(p, d) for p, d in zip(poses[inside][:6], need[inside][:6], strict=True)]
+    toppled_inside, toppled_need = region.query(toppled[None])
+    if toppled_inside[0]:
+        tested.append((toppled, toppled_need[0]))
+    assert len(tested) >= 6
+    for pose, distance in tested:
+        end = region.evolve(pose[None], float(distance), 1)[-1, :, 0]
+        back = end[:, 0] - hx * np.abs(np.cos(end[:, 2])) - hy * np.abs(np.sin(end[:, 2]))
+        assert back.max() <= PALM_FRONT + PALM_SEAT + region.step, (pose, back.max())
 
 
 @pytest.mark.parametrize(
