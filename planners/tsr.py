@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.capture import CaptureRegion
 from planners.hand2d import GRASP_DEPTH
@@ -51,24 +50,18 @@ class GraspTSR:
         return Frame2D((float(origin[0]), float(origin[1])), heading)
 
 
-def static_grasp_depth(footprint: Footprint) -> float:
-    """m behind the fingertip line a static grasp needs a round object's centre: `GRASP_DEPTH`
-    at every preshape. At the narrow ones closing itself needs it and the region asks for it;
-    at the straight and V ones it is the static grasp's margin against a true pose beyond the
-    samples, which a push-grasp gets from pushing `planners.actions.push_grasp.PUSH_MARGIN`
-    further (with the margin only where closing needs it, pick-and-place closed 8 mm behind
-    the line at 0.192 m in Table 1 high_06 sigma2, and a true bottle beyond the samples left
-    the table in 2 of 10 trials). Boxes need none (their face lies flat on the fingertips)."""
-    return GRASP_DEPTH if footprint.shape == "circle" else 0.0
-
-
 def grasped_still(region: CaptureRegion, in_hand: np.ndarray) -> np.ndarray:
     """Which object poses (N, 3) in the hand frame the fingers grasp by closing where the hand
-    stands, with no push: in the region, needing no push, and `static_grasp_depth` behind the
-    fingertip line."""
+    stands, with no push: in the region, needing no push, and `GRASP_DEPTH` behind the
+    fingertip line at every preshape. Where closing itself needs that depth
+    (`planners.hand2d.grasp_depth`) the region asks for it too; at the straight and V preshapes
+    a cylinder's is the static grasp's margin against a true pose beyond the samples, which a
+    push-grasp gets from pushing `planners.actions.push_grasp.PUSH_MARGIN` further (without it,
+    pick-and-place closed 8 mm behind the line at 0.192 m in Table 1 high_06 sigma2, and a
+    true bottle beyond the samples left the table in 2 of 10 trials)."""
     in_hand = np.asarray(in_hand, dtype=float).reshape(-1, 3)
     inside, push = region.query(in_hand)
-    deep = in_hand[:, 0] <= region.grasp_line - static_grasp_depth(region.footprint)
+    deep = in_hand[:, 0] <= region.grasp_line - GRASP_DEPTH
     return np.asarray(inside & (push <= 0.0) & deep)
 
 

@@ -17,8 +17,8 @@ contact and lifted 10 cm.
 Static grasps (``--action static-grasp``): the push-grasp set-up with no push: the hand preshaped
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
-`planners.tsr.grasped_still` says (the region needs no push and a round object's centre is
-`planners.tsr.static_grasp_depth` behind the line); poses the region holds without a push but
+`planners.tsr.grasped_still` says (the region needs no push and the object's centre is
+`planners.hand2d.GRASP_DEPTH` behind the line); poses the region holds without a push but
 nearer the line are counted apart as ``failures_at_edge``.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
@@ -646,8 +646,8 @@ def predictions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
     poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
-    grasps the region holds without a push that the planner does not close on (a round object
-    within `planners.tsr.static_grasp_depth` of the fingertip line)."""
+    grasps the region holds without a push that the planner does not close on (within
+    `planners.hand2d.GRASP_DEPTH` of the fingertip line)."""
     if isinstance(region, SweepRegion):
         return region.query(poses, DISTANCE)[0], np.zeros(len(poses), dtype=bool)
     if action == "static-grasp":

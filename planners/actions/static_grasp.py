@@ -20,8 +20,8 @@ from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.capture import CaptureRegion, push_grasp_apertures
-from planners.hand2d import PushGraspProfile, push_grasp_profile
-from planners.tsr import GraspTSR, grasps_every_sample, static_grasp_depth
+from planners.hand2d import GRASP_DEPTH, PushGraspProfile, push_grasp_profile
+from planners.tsr import GraspTSR, grasps_every_sample
 
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
 TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
@@ -59,7 +59,7 @@ def static_grasp(
             (-profile.half_gap, profile.half_gap),
             (
                 profile.grasp_line - TSR_DEPTH,
-                profile.grasp_line - static_grasp_depth(spec.footprint),
+                profile.grasp_line - GRASP_DEPTH,
             ),
         )
         draws = _grasping_draws(ctx, arm, name, tsr, region, profile, avoid)
