@@ -215,29 +215,31 @@ def push_grasp_profile(aperture: float) -> PushGraspProfile:
 
 
 GRASP_DEPTH = 0.015
-"""m an object's centre must stand behind the fingertip line (``grasp_line``) for closing
-fingers to hold it when nothing else touches it. Measured in pybullet (`clutter-gym
+"""m an object's centre must stand behind the fingertip line (``grasp_line``) for fingers
+closing where nothing else moved it to hold it. Measured in pybullet (`clutter-gym
 validate-capture --action static-grasp --aperture all`, docs/results/capture_static.md): with
 the centre within 15 mm of the line, a juice bottle toppled or was flung off the table in 53 of
 214 closes at the 0.100-0.156 m preshapes, whose fingertips lean inward, meet it in front of its
 centre and squeeze it out forward; in none of 340 at the straight and V preshapes, whose fingers
-wrap around it; behind the 15 mm every close held, and the can held everywhere. The poptart box
-held in all 120 closes of that grid within 15 mm (turned 0, 30, ... 150 deg), but standing
-turned 74 deg, nearly across the hand, it toppled when closed on 1 mm behind the line at every
-one of five approach headings and 6 mm behind at three, and held 11 mm and more behind
-(Table 1 medium_04 without noise, a static grasp at 0.192 m). A push-grasp's capture region
-counts an object that nothing touches as captured only this far behind the line
-(`planners.capture_build.build_push_grasp`): a push that ends as the centre just crosses it
-leaves it there (Table 1 high_04 sigma2, a bottle the fingers flung off the table at 0.12 m)."""
+wrap around it; behind the 15 mm every close held, and the can held everywhere. A push-grasp's
+capture region counts a cylinder that nothing touches as captured only this far behind the line
+in those narrow preshapes (`grasp_depth`; a push that ends as the centre just crosses it leaves
+it there: Table 1 high_04 sigma2, a bottle the fingers flung off the table at 0.12 m). Static
+grasps keep it for every object at every preshape (`planners.tsr.grasped_still`): the poptart
+box, which held in all 120 closes of that grid within 15 mm (turned 0, 30, ... 150 deg), toppled
+standing turned 74 deg, nearly across the hand, when closed on 1 mm behind the line at every one
+of five approach headings and 6 mm behind at three, and held 11 mm and more behind (Table 1
+medium_04 without noise, a static grasp at 0.192 m)."""
 
 
 def grasp_depth(footprint: Footprint, aperture: float) -> float:
-    """m behind the fingertip line the centre of an object that nothing touches must be for
-    fingers closing from ``aperture`` to hold it: `GRASP_DEPTH` for a box at every preshape and
-    for a cylinder in a preshape narrower than the straight one (the wider ones wrap around a
-    cylinder: none)."""
+    """m behind the fingertip line a push-grasp's capture region asks of the centre of an
+    object that nothing touches: `GRASP_DEPTH` for a cylinder in a preshape narrower than the
+    straight one, none otherwise (the wider preshapes wrap around a cylinder; a box pushed the
+    planner's distance, its need plus `planners.actions.push_grasp.PUSH_MARGIN`, held in every
+    close inside its regions, docs/results/capture_poptart.md)."""
     narrow = aperture < STRAIGHT_APERTURE - 1e-9
-    return GRASP_DEPTH if footprint.shape == "box" or narrow else 0.0
+    return GRASP_DEPTH if footprint.shape == "circle" and narrow else 0.0
 
 
 PALM_FRONT = _K + _D3
