@@ -99,7 +99,10 @@ LIFT_WAYPOINTS = 4
 GRID_Y = 0.20  # m either side of the hand axis (push-grasps)
 GRID_X = (0.05, 0.45)  # m ahead of hand_base (push-grasps)
 STATIC_MARGIN = 0.01  # m of static-grasp grid beyond the fingertip line
-BOX_ANGLES = 6  # object orientations over [0, pi) for boxes (Fig. 9(d))
+BOX_ANGLES = 12
+"""Object orientations over [0, pi) for boxes (Fig. 9(d)): every 15 deg, the regions' own theta
+grid (`planners.capture_build.CaptureSettings.box_thetas`). At 30 deg the grid never stood the
+poptart box at 67-80 deg, where closing on it within 7 mm of the fingertip line toppled it."""
 SIDES = {1: "right", -1: "left"}  # a sweep's handedness: the side of the hand that pushes
 SWEEP_MARGIN = 0.03  # m of sweep grid beyond the hand's span and beyond the region's reach
 CONTACT_TOLERANCE = 0.005  # m between a swept object and the hand where the sweep ends
