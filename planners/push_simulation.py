@@ -17,11 +17,8 @@ from scipy.spatial import ConvexHull
 
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import rotation_2d
-from planners.pushing import MAX_CONTACTS, positive, single_contact_twist, solve_contacts
-
-MAX_SPEED_RATIO = 10.0
-"""The fastest an object point may move, in pusher speeds, before a contact solution is
-taken for a degenerate one (`_contact_twist`)."""
+from planners import push_kernels
+from planners.pushing import PATTERNS, positive
 
 
 # --------------------------------------------------------------------------------------------
@@ -113,52 +110,27 @@ class Pusher:
         hi = np.vstack(pts + [centers + radii[:, None]]).max(0)
         return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
+    @cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What the compiled kernels take: every polygon in `_groups` order, padded to one
+        array (P, K, 2), its vertex count (P,), and the discs' centres (C, 2) and radii (C,)."""
+        flat = [v for group in self._groups for v in group]
+        polygons = np.zeros((len(flat), max((len(v) for v in flat), default=3), 2))
+        for i, v in enumerate(flat):
+            polygons[i, : len(v)] = v
+        counts = np.array([len(v) for v in flat], dtype=np.int64)
+        centres, radii = self._circle_arrays
+        return polygons, counts, np.ascontiguousarray(centres), np.ascontiguousarray(radii)
+
     def clearance(self, centers: np.ndarray) -> np.ndarray:
         """Distance from points (N, 2) to the pusher (negative inside): a free-motion bound."""
-        out = np.full(len(centers), np.inf)
-        for verts in self._groups:
-            d, _, _ = _point_polygon(centers[:, None, :], verts[None])
-            out = np.minimum(out, d.min(1))
-        cc, cr = self._circle_arrays
-        if len(cr):
-            d = np.linalg.norm(centers[:, None, :] - cc[None], axis=-1) - cr[None]
-            out = np.minimum(out, d.min(1))
-        return out
-
-
-def _point_polygon(p: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Signed distance of points to convex polygons (negative inside), the outward unit normal
-    at the nearest boundary point, and that point. p: (..., 2), verts: (..., k, 2) broadcast."""
-    v0 = verts
-    e = np.roll(verts, -1, axis=-2) - v0
-    e2 = (e * e).sum(-1)
-    rel = p[..., None, :] - v0
-    out_n = np.stack([e[..., 1], -e[..., 0]], axis=-1) / np.sqrt(e2)[..., None]
-    side = (rel * out_n).sum(-1)
-    tt = np.clip((rel * e).sum(-1) / e2, 0.0, 1.0)
-    q = v0 + tt[..., None] * e
-    diff = p[..., None, :] - q
-    dist = np.linalg.norm(diff, axis=-1)
-    j_out = np.argmin(dist, axis=-1)
-    j_in = np.argmax(side, axis=-1)
-    inside = side.max(-1) <= 0
-
-    def take(a: np.ndarray, j: np.ndarray) -> np.ndarray:
-        return np.take_along_axis(a, j[..., None, None], axis=-2)[..., 0, :]
-
-    d_out = np.take_along_axis(dist, j_out[..., None], -1)[..., 0]
-    n_out = take(diff, j_out) / np.maximum(d_out, 1e-300)[..., None]
-    n_in = take(np.broadcast_to(out_n, diff.shape), j_in)
-    d_in = side.max(-1)
-    signed = np.where(inside, d_in, d_out)
-    normal = np.where(inside[..., None], n_in, n_out)
-    closest = p - signed[..., None] * normal
-    return signed, normal, closest
+        return push_kernels.clearance(np.ascontiguousarray(centers, dtype=float), *self.packed)
 
 
 def _signed_distance(p: np.ndarray, verts: np.ndarray) -> np.ndarray:
     """Signed distance of points to convex polygons (negative inside) alone, without the
-    normals and nearest points of `_point_polygon`. p: (..., 2), verts: (..., k, 2) broadcast."""
+    normals and nearest points of `push_kernels.point_polygon`. p: (..., 2), verts: (..., k, 2)
+    broadcast."""
     e = np.roll(verts, -1, axis=-2) - verts
     e2 = (e * e).sum(-1)
     rel = p[..., None, :] - verts
@@ -256,43 +228,26 @@ def contacts(
     Exact for circles and boxes against convex shapes: a box touches with its corners or is
     touched by the pusher's corners and discs, which covers face-face contact by its two ends.
     """
-    gaps, points, normals = [], [], []
-    cc, cr = pusher._circle_arrays
-    if footprint.shape == "circle":
-        radius = footprint.radius
-        center = poses[:, None, :2]
-        for verts in pusher._groups:
-            d, nrm, _ = _point_polygon(center, verts[None])
-            gaps.append(d - radius)
-            normals.append(nrm)
-            points.append(center - radius * nrm)
-        if len(cr):
-            diff = center - cc[None]
-            dist = np.linalg.norm(diff, axis=-1)
-            nrm = diff / np.maximum(dist, 1e-300)[..., None]
-            gaps.append(dist - cr[None] - radius)
-            normals.append(nrm)
-            points.append(center - radius * nrm)
-    else:
-        corners = box_corners(footprint.half_extents, poses)  # (N, 4, 2)
-        for verts in pusher._groups:
-            d, nrm, _ = _point_polygon(corners[:, :, None, :], verts[None, None])  # (N, 4, P)
-            gaps.append(d.reshape(len(poses), -1))
-            normals.append(nrm.reshape(len(poses), -1, 2))
-            points.append(np.repeat(corners, verts.shape[0], axis=1))
-            pv = verts.reshape(-1, 2)
-            d, nrm, closest = _point_polygon(pv[None], corners[:, None])  # (N, V)
-            gaps.append(d)
-            normals.append(-nrm)
-            points.append(closest)
-        if len(cr):
-            d, nrm, closest = _point_polygon(
-                np.broadcast_to(cc, (len(poses), *cc.shape)), corners[:, None]
-            )
-            gaps.append(d - cr[None])
-            normals.append(-nrm)
-            points.append(closest)
-    return np.concatenate(gaps, 1), np.concatenate(points, 1), np.concatenate(normals, 1)
+    poses = np.ascontiguousarray(poses, dtype=float).reshape(-1, 3)
+    packed = pusher.packed
+    size = push_kernels.candidate_count(footprint.shape == "box", packed[1], len(packed[3]))
+    gaps, points, normals = (
+        np.empty((len(poses), size)),
+        np.empty((len(poses), size, 2)),
+        np.empty((len(poses), size, 2)),
+    )
+    for i in range(len(poses)):
+        push_kernels.candidates(
+            *_shape_args(footprint), poses[i], *packed, gaps[i], points[i], normals[i]
+        )
+    return gaps, points, normals
+
+
+def _shape_args(footprint: Footprint) -> tuple[bool, float, float, float]:
+    """(is a box, radius, half extents) of a footprint, as the kernels take them."""
+    box = footprint.shape == "box"
+    hx, hy = footprint.half_extents if box else (0.0, 0.0)
+    return box, 0.0 if box else float(footprint.radius), float(hx), float(hy)
 
 
 # --------------------------------------------------------------------------------------------
@@ -420,36 +375,18 @@ def _contact_twist(
     The gap g of each contact enters as a pusher velocity reduced by g/move along the normal
     (time-stepping with the gap), so a contact closes exactly and a penetration is pushed out.
     """
-    gap, point, normal = contacts(footprint, pusher, poses)
-    order = np.argsort(gap, axis=1)[:, :MAX_CONTACTS]
-    gap = np.take_along_axis(gap, order, 1)
-    point = np.take_along_axis(point, order[..., None], 1)
-    normal = np.take_along_axis(normal, order[..., None], 1)
-    count = (gap < margin).sum(1)
-    rot_t = np.swapaxes(rotation_2d(poses[:, 2]), 1, 2)
-    r = np.einsum("nij,nkj->nki", rot_t, point - poses[:, None, :2])
-    n = np.einsum("nij,nkj->nki", rot_t, normal)
-    push_dir = rot_t[:, :, 0]  # the pusher's +x in the object frame
-    # A step cut short by a checkpoint may be tiny: the gap still closes at most at the rate
-    # a full step closes it (margin / step), never at gap / 1e-15, which flings the object.
-    closing = np.clip(gap / move[:, None], -margin / step, margin / step)
-    vp = push_dir[:, None, :] - closing[..., None] * n
-    twist = np.zeros((len(poses), 3))
-    one = np.flatnonzero(count == 1)
-    if one.size:
-        twist[one], _ = single_contact_twist(r[one, 0], n[one, 0], vp[one, 0], mu[one], c[one])
-    for m in range(2, MAX_CONTACTS + 1):
-        idx = np.flatnonzero(count == m)
-        if idx.size:
-            sol = solve_contacts(r[idx, :m], n[idx, :m], vp[idx, :m], mu[idx], c[idx])
-            twist[idx] = sol.twist
-            # A nearly degenerate contact set (two normals at one corner, high friction) can
-            # give a solution whose points outrun the pusher many times over: no quasi-static
-            # push does that, so such a sample is held like a jammed one.
-            radius = footprint.bounding_radius
-            speed = np.hypot(*sol.twist[:, :2].T) + radius * np.abs(sol.twist[:, 2])
-            pusher_speed = np.abs(vp[idx, :m]).max((1, 2))
-            runaway = speed > MAX_SPEED_RATIO * np.maximum(pusher_speed, 1.0)
-            jam = idx[sol.jammed | runaway]
-            twist[jam, :2], twist[jam, 2] = push_dir[jam], 0.0
-    return twist, count > 0
+    packed = pusher.packed
+    size = push_kernels.candidate_count(footprint.shape == "box", packed[1], len(packed[3]))
+    return push_kernels.contact_twists(
+        *_shape_args(footprint),
+        footprint.bounding_radius,
+        np.ascontiguousarray(poses, dtype=float),
+        np.ascontiguousarray(mu, dtype=float),
+        np.ascontiguousarray(c, dtype=float),
+        np.ascontiguousarray(move, dtype=float),
+        margin,
+        step,
+        *packed,
+        size,
+        PATTERNS,
+    )

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-MAX_CONTACTS = 4
-"""Contacts kept per sample and step (the nearest ones); a box on a flat face needs two."""
-_TOL = 1e-9
+from planners import push_kernels
+from planners.push_kernels import MAX_CONTACTS
 
 
 # --------------------------------------------------------------------------------------------
@@ -143,9 +142,6 @@ def lynch_sticking_twist(r: np.ndarray, vp: np.ndarray, c: np.ndarray | float) -
     return np.stack([vx, vy, (x * vy - y * vx) / c2], axis=-1)
 
 
-SEPARATE, STICK, SLIDE = 0, 1, 2
-
-
 def single_contact_twist(
     r: np.ndarray,
     n: np.ndarray,
@@ -153,33 +149,20 @@ def single_contact_twist(
     mu: np.ndarray | float,
     c: np.ndarray | float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Object twist and contact mode (SEPARATE/STICK/SLIDE) for one point contact, batched.
+    """Object twist and contact mode (`push_kernels.SEPARATE`, STICK or SLIDE) of one point
+    contact, batched.
 
     The three cases of a point contact: the sticking force f* = B^-1 v_p decides between
     sticking and sliding on the friction-cone edge that f* lies beyond.
     """
-    r, n, vp = np.broadcast_arrays(*(np.asarray(a, float) for a in (r, n, vp)))
-    mu, c = np.asarray(mu, float), np.asarray(c, float)
-    t = np.stack([-n[..., 1], n[..., 0]], axis=-1)
-    jac = contact_jacobian(r)
-    a_diag = np.stack(np.broadcast_arrays(np.ones_like(c), np.ones_like(c), 1.0 / c**2), -1)
-    ajt = a_diag[..., :, None] * np.swapaxes(jac, -1, -2)  # A J^T, (..., 3, 2)
-    b = jac @ ajt
-    f_star = np.linalg.solve(b, vp[..., None])[..., 0]
-    fn, ft = (f_star * n).sum(-1), (f_star * t).sum(-1)
-    v_stick = (ajt @ f_star[..., None])[..., 0]
-    s = np.sign(ft)
-    edge = n + (s * mu)[..., None] * t
-    v_b = (ajt @ edge[..., None])[..., 0]
-    vpn = (vp * n).sum(-1)
-    n_jvb = (n * (jac @ v_b[..., None])[..., 0]).sum(-1)
-    v_slide = (vpn / n_jvb)[..., None] * v_b
-    sticking = np.abs(ft) <= mu * fn
-    separating = vpn <= 0
-    twist = np.where(sticking[..., None], v_stick, v_slide)
-    twist = np.where(separating[..., None], 0.0, twist)
-    mode = np.where(separating, SEPARATE, np.where(sticking, STICK, SLIDE))
-    return twist, mode
+    arrays = np.broadcast_arrays(*(np.asarray(a, float) for a in (r, n, vp)))
+    shape = arrays[0].shape[:-1]
+    r, n, vp = (np.ascontiguousarray(a.reshape(-1, 2)) for a in arrays)
+    mu, c = (
+        np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), shape).ravel()) for a in (mu, c)
+    )
+    twist, mode = push_kernels.one_contact_batch(r, n, vp, mu, c)
+    return twist.reshape(*shape, 3), mode.reshape(shape)
 
 
 # --------------------------------------------------------------------------------------------
@@ -227,54 +210,8 @@ def _mode_patterns(m: int) -> np.ndarray:
     return combos[np.argsort(key, kind="stable")]
 
 
-def _feasible_forces(
-    g: np.ndarray, b: np.ndarray, mu: np.ndarray, patterns: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """For each sample, whether one of ``patterns`` (P, m) satisfies the LCP conditions, and
-    the contact forces (N, 2m) of the first that does."""
-    big_n, m = len(g), patterns.shape[1]
-    n_pat = len(patterns)
-    k = np.zeros((big_n, n_pat, 2 * m, 2 * m))
-    h = np.zeros((big_n, n_pat, 2 * m))
-    eye = np.eye(2 * m)
-    for i in range(m):
-        rn, rt = 2 * i, 2 * i + 1
-        mode = patterns[:, i][None, :, None]  # (1, P, 1)
-        sigma = np.where(mode == 2, 1.0, -1.0)
-        k[:, :, rn] = np.where(mode == 0, eye[rn], g[:, None, rn])
-        slide_row = eye[rt] + sigma * mu[:, None, None] * eye[rn]
-        k[:, :, rt] = np.where(mode == 0, eye[rt], np.where(mode == 1, g[:, None, rt], slide_row))
-        h[:, :, rn] = np.where(mode[..., 0] == 0, 0.0, b[:, None, rn])
-        h[:, :, rt] = np.where(mode[..., 0] == 1, b[:, None, rt], 0.0)
-    f = _solve_patterns(k + 1e-10 * eye, h)  # (N, P, 2m)
-    u = (g[:, None] @ f[..., None])[..., 0] - b[:, None]  # relative (normal, tangent) velocity
-    tol = 1e-7 * (1.0 + np.abs(f).max(-1) + np.abs(b).max(-1)[:, None])  # (N, P)
-    fn, ft, un, ut = f[..., 0::2], f[..., 1::2], u[..., 0::2], u[..., 1::2]
-    modes = patterns[None]
-    sigma = np.where(modes == 2, 1.0, -1.0)
-    t3 = tol[..., None]
-    feasible = np.where(
-        modes == 0,
-        un >= -t3,
-        (fn >= -t3)
-        & np.where(modes == 1, np.abs(ft) <= mu[:, None, None] * fn + t3, sigma * ut >= -t3),
-    ).all(-1)
-    first = np.argmax(feasible, axis=1)
-    return feasible.any(1), f[np.arange(big_n), first]
-
-
-def _solve_patterns(k: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """Batched k f = h; the singular systems (degenerate patterns, e.g. two slides on one
-    point) get the pseudo-inverse, the rest an LU solve, so one degenerate pattern does not
-    send the whole batch through an SVD."""
-    singular = ~(np.abs(np.linalg.det(k)) > 0.0)
-    f = np.empty_like(h)
-    regular = ~singular
-    if regular.any():
-        f[regular] = np.linalg.solve(k[regular], h[regular][..., None])[..., 0]
-    if singular.any():
-        f[singular] = (np.linalg.pinv(k[singular]) @ h[singular][..., None])[..., 0]
-    return f
+PATTERNS = tuple(_mode_patterns(m) for m in range(MAX_CONTACTS + 1))
+"""`_mode_patterns` of 0 to MAX_CONTACTS contacts, made once."""
 
 
 def solve_contacts(
@@ -288,33 +225,13 @@ def solve_contacts(
 
     r, n, vp: (N, m, 2) in the object frame; mu, c: scalars or (N,). Forces are not unique when
     contacts are redundant (a face on a face); a 1e-10 ridge picks one, the twist is unique.
+    Each sample takes the first feasible complementarity pattern, fewest active contacts first.
     """
-    r, n, vp = (np.asarray(a, float) for a in (r, n, vp))
+    r, n, vp = (np.ascontiguousarray(a, dtype=float) for a in (r, n, vp))
     big_n, m = r.shape[:2]
-    mu = np.broadcast_to(np.asarray(mu, float), (big_n,))
-    c = np.broadcast_to(np.asarray(c, float), (big_n,))
-    t = np.stack([-n[..., 1], n[..., 0]], axis=-1)
-    jac = contact_jacobian(r)  # (N, m, 2, 3)
-    dirs = np.stack([n, t], axis=-1)  # (N, m, 2, 2): columns n, t
-    w = np.einsum("nmkj,nmkd->njmd", jac, dirs).reshape(big_n, 3, 2 * m)  # W = [J^T n, J^T t]
-    a_diag = np.stack([np.ones(big_n), np.ones(big_n), 1.0 / c**2], axis=1)
-    aw = a_diag[:, :, None] * w
-    g = np.swapaxes(w, 1, 2) @ aw  # (N, 2m, 2m)
-    b = np.einsum("nmk,nmkd->nmd", vp, dirs).reshape(big_n, 2 * m)  # (n.vp, t.vp)
-    patterns = _mode_patterns(m)  # (P, m), simplest first
-    # Patterns are tried in blocks of equal simplicity, each only for the samples still without
-    # a feasible one: the first feasible pattern in order is the same as trying all at once,
-    # and most samples settle in the first blocks (4^m patterns for m contacts otherwise).
-    active = (patterns != 0).sum(1)
-    forces = np.zeros((big_n, 2 * m))
-    pending = np.ones(big_n, dtype=bool)
-    for level in range(m + 1):
-        rows = np.flatnonzero(pending)
-        if not rows.size:
-            break
-        block = patterns[active == level]
-        found, f = _feasible_forces(g[rows], b[rows], mu[rows], block)
-        forces[rows[found]] = f[found]
-        pending[rows[found]] = False
-    twist = (aw @ forces[..., None])[..., 0]
-    return ContactSolution(twist, forces.reshape(big_n, m, 2), pending)
+    if not 1 <= m <= MAX_CONTACTS:
+        raise ValueError(f"solve_contacts takes 1 to {MAX_CONTACTS} contacts, got m = {m}")
+    mu = np.ascontiguousarray(np.broadcast_to(np.asarray(mu, float), (big_n,)))
+    c = np.ascontiguousarray(np.broadcast_to(np.asarray(c, float), (big_n,)))
+    twist, forces, jammed = push_kernels.lcp_batch(r, n, vp, mu, c, PATTERNS[m])
+    return ContactSolution(twist, forces.reshape(big_n, m, 2), jammed)

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from clutter_gym.model.objects import OBJECTS, Footprint
 from planners.hand2d import push_grasp_profile, sweep_profile
+from planners.push_kernels import STICK
 from planners.push_simulation import (
     ConvexPolygon,
     Pusher,
@@ -22,7 +23,6 @@ from planners.push_simulation import (
     swept,
 )
 from planners.pushing import (
-    STICK,
     DiscPressure,
     RectanglePressure,
     RimPressure,
