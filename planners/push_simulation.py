@@ -3,7 +3,8 @@ quasi-static simulation of many pushes at once (`simulate_push`), on the contact
 `planners.pushing`.
 
 Each sample keeps its own clock, so samples far from the pusher jump ahead while only those in
-contact pay for small steps; every step of every sample in contact is solved in one batch.
+contact pay for small steps; every step of every sample in contact is solved in one compiled
+call (`planners.push_kernels`).
 """
 
 from __future__ import annotations
@@ -390,3 +391,16 @@ def _contact_twist(
         size,
         PATTERNS,
     )
+
+
+def warm_up() -> None:
+    """Compile the kernels this module runs (or load them from numba's disk cache: about 15 s
+    the first time after an install or a change of `push_kernels`, a fraction of a second
+    after), by pushing a box and a disc a few millimetres: done before a plan's clock starts,
+    so that no planning time or budget pays for it."""
+    pusher = Pusher(
+        (rectangle(np.array([0.0, -0.05]), np.array([0.0, 0.05]), 0.01),),
+        (Circle((0.0, 0.06), 0.01),),
+    )
+    for footprint in (Footprint("box", half_extents=(0.02, 0.03)), Footprint("circle", 0.03)):
+        simulate_push(footprint, pusher, np.array([[0.05, 0.0, 0.1]]), 0.5, 0.02, 0.03)

@@ -1,16 +1,17 @@
 """Quasi-static planar pushing with an ellipsoidal limit surface (Howe & Cutkosky; Lynch).
 
 Why this module exists: capture regions (`planners.capture`) need thousands of push simulations,
-so every solver here works on batches of samples with numpy. Conventions: the object frame sits at
-the centre of friction, a twist is ``(vx, vy, omega)`` in that frame, contact normals point from
-the pusher into the object, and ``A = diag(1, 1, 1/c^2)``.
+so every solver here takes batches of samples; the per-sample arithmetic is compiled
+(`planners.push_kernels`). Conventions: the object frame sits at the centre of friction, a twist
+is ``(vx, vy, omega)`` in that frame, contact normals point from the pusher into the object, and
+``A = diag(1, 1, 1/c^2)``.
 
 Several simultaneous contacts are solved as the contact LCP (Stewart & Trinkle) by enumerating,
 for each contact, the four complementarity patterns of its ``(f_n, f_t+, f_t-, lambda)`` block
-(separate, stick, slide +t, slide -t): with at most four contacts that is at most 256 linear
-systems, each solved for the whole batch at once, and an exhaustive enumeration never misses a
-solution the way a pivoting method with a degenerate start can. No solution means the contacts
-jam.
+(separate, stick, slide +t, slide -t): with at most four contacts that is at most 256 small
+linear systems, tried simplest first until one is feasible, and an exhaustive enumeration never
+misses a solution the way a pivoting method with a degenerate start can. No solution means the
+contacts jam.
 """
 
 from __future__ import annotations

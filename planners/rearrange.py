@@ -22,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from clutter_gym.model import kinematics
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import Region, Surface
+from planners import push_simulation
 from planners.actions import ACTIONS, CAN_MOVE
 from planners.actions.arm import Arm, IKSolver
 from planners.actions.context import PlanningContext
@@ -171,6 +173,8 @@ def plan_retrieval(
     if q0.shape != (7,) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start_arm: {start_arm!r}; expected 7 finite joint angles")
     rng = np.random.default_rng(settings.seed)  # the TSR's draws
+    kinematics.warm_up()  # the compiled kernels, before the budget starts
+    push_simulation.warm_up()
     ctx = PlanningContext(
         surface,
         {b.name: b for b in beliefs},

@@ -134,3 +134,23 @@ def test_every_agents_package_says_what_lives_there() -> None:
     for init in sorted((ROOT / "agents").rglob("__init__.py")):
         doc = ast.get_docstring(ast.parse(init.read_text()))
         assert doc and len(doc.splitlines()) == 1, f"{init.relative_to(ROOT)}: one-line docstring"
+
+
+KERNEL_MODULES = {"clutter_gym.model.arm_kernels", "planners.push_kernels"}
+"""The only modules with numba-compiled functions."""
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_compiled_kernels_live_in_self_contained_modules(path: Path) -> None:
+    """numba's disk cache is invalidated by a change of a kernel's own file only, never of a
+    module it imports: a kernel calling a compiled function of another file would keep running
+    that function's old code after an edit. So compiled code lives in the kernel modules, and
+    they import nothing of the project."""
+    module = _module(path)
+    imported = [name for _, name in _imports(path)]
+    if module in KERNEL_MODULES:
+        assert not [name for name in imported if name.split(".")[0] in LAYERS], module
+    else:
+        assert "numba" not in {name.split(".")[0] for name in imported}, (
+            f"{module} imports numba: compiled code belongs in {sorted(KERNEL_MODULES)}"
+        )

@@ -1,4 +1,5 @@
-"""Pure-numpy kinematics of one HERB WAM arm: FK, Jacobian, complete analytic IK.
+"""Kinematics of one HERB WAM arm: FK, Jacobian, complete analytic IK (numpy; the chain and the
+descent per configuration compiled in `clutter_gym.model.arm_kernels`).
 
 The chain is the Spong-DH product of ``herb_model.WAM_DH`` between the fixed mount of the arm and
 the hand mount. The URDF link frame ``{side}_wam{i}`` equals DH frame i-1 rotated by q_i, so the
@@ -18,6 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from clutter_gym.model import arm_kernels
 from clutter_gym.model import herb as hm
 from clutter_gym.model.transforms import rotation_exp, rotation_log, transform
 
@@ -56,12 +58,14 @@ def _cos_sin_roots(a: np.ndarray | float, b: np.ndarray | float, c: float) -> np
     return np.stack([phase + half, phase - half])
 
 
-def pose_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
-    """6-vector (position error, rotation-vector error), both in the world frame."""
-    e = np.empty(6)
-    e[:3] = target[:3, 3] - current[:3, 3]
-    e[3:] = rotation_log(target[:3, :3] @ current[:3, :3].T)
-    return e
+def warm_up() -> None:
+    """Compile the kernels (`arm_kernels`) or load them from numba's disk cache before anything
+    is timed: about 12 s the first time after an install, milliseconds after."""
+    arm = ArmKinematics()
+    frames = arm._dh_frames(arm.home)
+    arm.link_frames(arm.home)
+    arm._jacobian(frames)
+    arm._descend(frames[7] @ arm._to_tcp, arm.home, 1e-4, 1e-3, 1)
 
 
 class ArmKinematics:
@@ -74,14 +78,17 @@ class ArmKinematics:
         self.side = side
         self.base = transform(*hm.ARM_MOUNT[side]) if base is None else np.asarray(base, float)
         self._frame0 = self.base @ transform(hm.WAM_BASE_TO_J1, (0.0, 0.0, 0.0))
-        a, alpha, d = hm.WAM_DH.T
+        a, alpha, d = (np.ascontiguousarray(column) for column in hm.WAM_DH.T)
         self._a, self._d = a, d
         self._ca, self._sa = np.cos(alpha), np.sin(alpha)
+        #: What `arm_kernels` takes for the chain: (frame 0, a, d, cos alpha, sin alpha).
+        self._chain = (self._frame0, a, d, self._ca, self._sa)
         self._to_hand = transform((0.0, 0.0, hm.FT_SENSOR_LENGTH), (0.0, 0.0, hm.HAND_MOUNT_YAW))
         self._to_tcp = self._to_hand @ transform((0.0, 0.0, hm.HAND_TCP_OFFSET), (0.0, 0.0, 0.0))
         self._from_tcp = np.linalg.inv(self._to_tcp)
         # The flange in the wam7 link frame is joint 7's DH transform without its rotation.
-        self._from_joint7 = np.linalg.inv(self._dh(np.zeros(7))[6])
+        zero = self._dh_frames(np.zeros(7))
+        self._from_joint7 = np.linalg.inv(np.linalg.inv(zero[6]) @ zero[7])
         lower, upper = hm.arm_joint_limits(side)
         self.lower, self.upper = lower.copy(), upper.copy()
         self._j3_grid = np.linspace(self.lower[2], self.upper[2], J3_SAMPLES)
@@ -94,25 +101,9 @@ class ArmKinematics:
         self.shoulder = self._frame0[:3, 3].copy()
 
     # ---------------------------------------------------------------- forward kinematics
-    def _dh(self, q: np.ndarray) -> np.ndarray:
-        """Stack of DH matrices, shape q.shape + (4, 4)."""
-        cq, sq = np.cos(q), np.sin(q)
-        m = np.zeros((*q.shape, 4, 4))
-        m[..., 0, 0], m[..., 0, 1], m[..., 0, 2] = cq, -sq * self._ca, sq * self._sa
-        m[..., 1, 0], m[..., 1, 1], m[..., 1, 2] = sq, cq * self._ca, -cq * self._sa
-        m[..., 2, 1], m[..., 2, 2] = self._sa, self._ca
-        m[..., 0, 3], m[..., 1, 3], m[..., 2, 3] = self._a * cq, self._a * sq, self._d
-        m[..., 3, 3] = 1.0
-        return m
-
     def _dh_frames(self, q: np.ndarray) -> np.ndarray:
         """World poses of DH frames 0..7, shape (8, 4, 4)."""
-        dh = self._dh(np.asarray(q, dtype=float))
-        frames = np.empty((8, 4, 4))
-        frames[0] = self._frame0
-        for i in range(7):
-            frames[i + 1] = frames[i] @ dh[i]
-        return frames
+        return arm_kernels.dh_frames(np.asarray(q, dtype=float), *self._chain)
 
     def fk(self, q: np.ndarray) -> np.ndarray:
         """World pose of ``{side}_hand_base``."""
@@ -133,19 +124,9 @@ class ArmKinematics:
 
         These are the frames the URDF collision primitives are attached to.
         """
-        q = np.asarray(q, dtype=float)
-        dh = self._dh_frames(q)
-        out = np.empty((9, 4, 4))
-        out[0] = self.base
-        # URDF frame of link i+1 = DH frame i rotated by q_{i+1} about its z axis (all seven
-        # at once: the arm's collision checks call this tens of thousands of times a plan).
-        out[1:8] = dh[:7]
-        c, s = np.cos(q)[:, None], np.sin(q)[:, None]
-        x, y = dh[:7, :3, 0], dh[:7, :3, 1]
-        out[1:8, :3, 0] = c * x + s * y
-        out[1:8, :3, 1] = -s * x + c * y
-        out[8] = dh[7] @ self._to_hand
-        return out
+        return arm_kernels.link_frames(
+            np.asarray(q, dtype=float), self.base, *self._chain, self._to_hand
+        )
 
     def fk_batch(self, qs: np.ndarray) -> np.ndarray:
         """Vectorized fk of an (N, 7) array: (N, 4, 4) hand_base poses."""
@@ -195,16 +176,7 @@ class ArmKinematics:
         return frames[7] @ self._to_tcp, self._jacobian(frames)
 
     def _jacobian(self, frames: np.ndarray) -> np.ndarray:
-        p = (frames[7] @ self._to_tcp)[:3, 3]
-        z = frames[:7, :3, 2].T
-        r = p[:, None] - frames[:7, :3, 3].T
-        j = np.empty((6, 7))
-        # z x r written out: np.cross costs more than the rest of an IK iteration.
-        j[0] = z[1] * r[2] - z[2] * r[1]
-        j[1] = z[2] * r[0] - z[0] * r[2]
-        j[2] = z[0] * r[1] - z[1] * r[0]
-        j[3:] = z
-        return j
+        return arm_kernels.tcp_jacobian(frames, self._to_tcp)
 
     # ---------------------------------------------------------------- inverse kinematics
     def solve_ik_local(
@@ -230,41 +202,19 @@ class ArmKinematics:
     def _descend(
         self, target: np.ndarray, q0: np.ndarray, pos_tol: float, rot_tol: float, max_iter: int
     ) -> np.ndarray | None:
-        """Levenberg-Marquardt from q0; every iterate is clamped into the joint limits."""
-        q = np.clip(q0, self.lower, self.upper)
-        frames = self._dh_frames(q)
-        e = pose_error(target, frames[7] @ self._to_tcp)
-        cost = float(e @ e)
-        lam = 1e-3
-        eye = np.eye(7)
-        for _ in range(max_iter):
-            if np.linalg.norm(e[:3]) < pos_tol and np.linalg.norm(e[3:]) < rot_tol:
-                return q
-            j = self._jacobian(frames)
-            # Joints pinned at a limit and pushed outwards are frozen for this step.
-            g = j.T @ e
-            free = ~(((q <= self.lower) & (g < 0)) | ((q >= self.upper) & (g > 0)))
-            jf = j[:, free]
-            jtj = jf.T @ jf
-            dq = np.zeros(7)
-            dq[free] = np.linalg.solve(
-                jtj + lam * (np.diag(np.diag(jtj)) + eye[free][:, free]), jf.T @ e
-            )
-            step = float(np.max(np.abs(dq)))
-            if step > 0.4:
-                dq *= 0.4 / step
-            qn = np.clip(q + dq, self.lower, self.upper)
-            fn = self._dh_frames(qn)
-            en = pose_error(target, fn[7] @ self._to_tcp)
-            cn = float(en @ en)
-            if cn < cost:
-                q, frames, e, cost = qn, fn, en, cn
-                lam = max(lam / 3.0, 1e-7)
-            else:
-                lam *= 5.0
-                if lam > 1e4:
-                    return None
-        return None
+        """Levenberg-Marquardt from q0 (`arm_kernels.descend`); None if it does not converge."""
+        q, converged = arm_kernels.descend(
+            np.ascontiguousarray(target, dtype=float),
+            np.asarray(q0, dtype=float),
+            self.lower,
+            self.upper,
+            self._chain,
+            self._to_tcp,
+            pos_tol,
+            rot_tol,
+            max_iter,
+        )
+        return q if converged else None
 
     def elbow_height(self, q: np.ndarray) -> float:
         """Height of the elbow above the shoulder-wrist midpoint: > 0 means elbow up."""

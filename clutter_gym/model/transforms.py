@@ -8,6 +8,9 @@ Planar frames (`Frame2D`) carry the pushing actions: capture regions live in the
 (`planners.hand2d`: x along the push, y to the left), and a left-hand sweep uses the mirror
 image of the right-hand sweep's region, so a frame may be left-handed (orientations then change
 sign).
+
+The rotation log is compiled with the arm's kinematics kernels, which call it
+(`clutter_gym.model.arm_kernels`: numba's cache sees one file), and re-exported here.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from clutter_gym.model.arm_kernels import rotation_log as rotation_log  # re-exported
 
 Vec3 = tuple[float, float, float]
 
@@ -101,24 +106,6 @@ def rotation_exp(w: np.ndarray) -> np.ndarray:
     k = w / theta
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
     return np.eye(3) + np.sin(theta) * kx + (1.0 - np.cos(theta)) * (kx @ kx)
-
-
-def rotation_log(r: np.ndarray) -> np.ndarray:
-    """Rotation vector (axis * angle) of a rotation matrix, robust near 0 and pi."""
-    vee = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    cos_t = np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)
-    theta = float(np.arccos(cos_t))
-    if theta < 1e-7:
-        return 0.5 * vee
-    if np.pi - theta > 1e-4:
-        return theta / (2.0 * np.sin(theta)) * vee
-    # Near pi: axis from the symmetric part, sign from the small antisymmetric part.
-    b = (r + np.eye(3)) / 2.0
-    k = int(np.argmax(np.diag(b)))
-    axis = b[:, k] / np.sqrt(b[k, k])
-    if axis @ vee < 0:
-        axis = -axis
-    return theta * axis / np.linalg.norm(axis)
 
 
 # --------------------------------------------------------------------------------------------
