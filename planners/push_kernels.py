@@ -446,3 +446,119 @@ def contact_twists(
             if not solved or speed > MAX_SPEED_RATIO * max(pusher_speed, 1.0):
                 twist[s, 0], twist[s, 1], twist[s, 2] = cos, -sin, 0.0
     return twist, touching
+
+
+@njit(cache=True)
+def deepest_side(px: float, py: float, verts: np.ndarray, k: int) -> float:
+    """How far a point lies inside a convex polygon (its first ``k`` vertices) as the largest
+    signed distance to its edges' lines: negative inside, positive outside (not a distance
+    there); enough to tell whether a point is inside by more than a depth."""
+    best = -np.inf
+    for j in range(k):
+        x0, y0 = verts[j, 0], verts[j, 1]
+        ex, ey = verts[(j + 1) % k, 0] - x0, verts[(j + 1) % k, 1] - y0
+        best = max(best, ((px - x0) * ey - (py - y0) * ex) / math.sqrt(ex * ex + ey * ey))
+    return best
+
+
+@njit(cache=True)
+def overlaps(
+    box: bool,
+    radius: float,
+    hx: float,
+    hy: float,
+    bounding_radius: float,
+    poses: np.ndarray,
+    depth: float,
+    polygons: np.ndarray,
+    counts: np.ndarray,
+    disc_centres: np.ndarray,
+    disc_radii: np.ndarray,
+) -> np.ndarray:
+    """`push_simulation.overlaps`: whether the object at each pose (N, 3) overlaps the pusher
+    by more than ``depth``. A polygon whose bounding circle the object's misses by that depth
+    is skipped; a box overlapping a polygon that deep has one of its corners, or one of the
+    polygon's vertices, inside the other by more than ``depth``."""
+    centres = np.zeros((len(polygons), 2))
+    radii = np.zeros(len(polygons))
+    for q in range(len(polygons)):
+        k = counts[q]
+        centres[q] = polygons[q, :k].sum(axis=0) / k
+        for j in range(k):
+            dx, dy = polygons[q, j, 0] - centres[q, 0], polygons[q, j, 1] - centres[q, 1]
+            radii[q] = max(radii[q], math.sqrt(dx * dx + dy * dy))
+    hit = np.zeros(len(poses), dtype=np.bool_)
+    corners = np.empty((4, 2))
+    for i in range(len(poses)):
+        x, y = poses[i, 0], poses[i, 1]
+        if box:
+            c, s = math.cos(poses[i, 2]), math.sin(poses[i, 2])
+            for n, (lx, ly) in enumerate(((hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy))):
+                corners[n, 0], corners[n, 1] = x + (c * lx - s * ly), y + (s * lx + c * ly)
+        hit[i] = _polygons_overlap(
+            box, x, y, corners, bounding_radius - depth, depth, polygons, counts, centres, radii
+        ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii)
+    return hit
+
+
+@njit(cache=True)
+def _polygons_overlap(
+    box: bool,
+    x: float,
+    y: float,
+    corners: np.ndarray,
+    reach: float,
+    depth: float,
+    polygons: np.ndarray,
+    counts: np.ndarray,
+    centres: np.ndarray,
+    radii: np.ndarray,
+) -> bool:
+    """Whether the object (a box with ``corners``, or a disc of radius ``reach`` + ``depth``
+    at x, y) overlaps one of the polygons by more than ``depth``."""
+    for q in range(len(polygons)):
+        dx, dy = x - centres[q, 0], y - centres[q, 1]
+        if math.sqrt(dx * dx + dy * dy) - radii[q] > reach:
+            continue
+        if box and _box_in_polygon(corners, polygons[q], counts[q], depth):
+            return True
+        if not box and point_polygon(x, y, polygons[q], counts[q])[0] < reach:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _discs_overlap(
+    box: bool,
+    radius: float,
+    x: float,
+    y: float,
+    corners: np.ndarray,
+    depth: float,
+    disc_centres: np.ndarray,
+    disc_radii: np.ndarray,
+) -> bool:
+    """Whether the object (a box with ``corners``, or a disc of ``radius`` at x, y) overlaps
+    one of the discs by more than ``depth``."""
+    for q in range(len(disc_radii)):
+        px, py = disc_centres[q, 0], disc_centres[q, 1]
+        if box:
+            gap = point_polygon(px, py, corners, 4)[0]
+        else:
+            gap = math.sqrt((x - px) ** 2 + (y - py) ** 2) - radius
+        if gap - disc_radii[q] < -depth:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _box_in_polygon(corners: np.ndarray, verts: np.ndarray, k: int, depth: float) -> bool:
+    """Whether a corner of the box lies inside the polygon, or a vertex of the polygon inside
+    the box, by more than ``depth``."""
+    for n in range(4):
+        if deepest_side(corners[n, 0], corners[n, 1], verts, k) < -depth:
+            return True
+    for j in range(k):
+        if deepest_side(verts[j, 0], verts[j, 1], corners, 4) < -depth:
+            return True
+    return False

@@ -142,16 +142,6 @@ def _signed_distance(p: np.ndarray, verts: np.ndarray) -> np.ndarray:
     return np.where(deepest <= 0.0, deepest, outside)
 
 
-def _deepest_side(p: np.ndarray, verts: np.ndarray) -> np.ndarray:
-    """The signed distance of points inside convex polygons (negative), positive outside but
-    not a distance there: the half-plane part of `_signed_distance`, enough to tell whether a
-    point is inside by more than a depth. p: (..., 2), verts: (..., k, 2) broadcast."""
-    e = np.roll(verts, -1, axis=-2) - verts
-    rel = p[..., None, :] - verts
-    side = (rel[..., 0] * e[..., 1] - rel[..., 1] * e[..., 0]) / np.sqrt((e * e).sum(-1))
-    return side.max(-1)
-
-
 def box_corners(half_extents: tuple[float, float], poses: np.ndarray) -> np.ndarray:
     """Corners (N, 4, 2), counter-clockwise, of boxes at poses (N, 3)."""
     hx, hy = half_extents
@@ -186,38 +176,16 @@ def smallest_gap(footprint: Footprint, pusher: Pusher, poses: np.ndarray) -> np.
 
 
 def overlaps(footprint: Footprint, pusher: Pusher, poses: np.ndarray, depth: float) -> np.ndarray:
-    """``smallest_gap(footprint, pusher, poses) < -depth`` (N,) at a fraction of its cost: only
-    (pose, polygon) pairs whose bounding circles overlap by ``depth`` > 0 are tested, and for a
-    box, whose overlap that deep puts one of its corners or a pusher vertex inside the other
-    polygon by more than ``depth``, the half-plane tests alone decide. The planner's 2D hand
-    test asks this thousands of times per plan in clutter."""
-    circle = footprint.shape == "circle"
-    corners = None if circle else box_corners(footprint.half_extents, poses)  # (N, 4, 2)
-    hit = np.zeros(len(poses), dtype=bool)
-    reach = footprint.bounding_radius - depth
-    for verts in pusher._groups:
-        centre = verts.mean(1)
-        radius = np.linalg.norm(verts - centre[:, None], axis=-1).max(1)
-        gap = np.linalg.norm(poses[:, None, :2] - centre[None], axis=-1) - radius[None]
-        pose_i, poly_i = np.nonzero(gap <= reach)
-        if not len(pose_i):
-            continue
-        poly = verts[poly_i]
-        if corners is None:
-            deep = _signed_distance(poses[pose_i, :2], poly) < reach
-        else:
-            box = corners[pose_i]
-            corner_in = (_deepest_side(box, poly[:, None]) < -depth).any(1)
-            deep = np.asarray(corner_in | (_deepest_side(poly, box[:, None]) < -depth).any(1))
-        hit[pose_i[deep]] = True
-    cc, cr = pusher._circle_arrays
-    if len(cr):
-        if corners is None:
-            d = np.linalg.norm(poses[:, None, :2] - cc[None], axis=-1) - footprint.radius
-        else:
-            d = _signed_distance(np.broadcast_to(cc, (len(poses), *cc.shape)), corners[:, None])
-        hit |= ((d - cr[None]) < -depth).any(1)
-    return hit
+    """``smallest_gap(footprint, pusher, poses) < -depth`` (N,) at a fraction of its cost
+    (`push_kernels.overlaps`: only the half-plane tests, and only against the pusher's shapes
+    within reach). The planner's 2D hand test asks this thousands of times per plan in clutter."""
+    return push_kernels.overlaps(
+        *_shape_args(footprint),
+        footprint.bounding_radius,
+        np.ascontiguousarray(poses, dtype=float).reshape(-1, 3),
+        depth,
+        *pusher.packed,
+    )
 
 
 def contacts(
