@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.model.transforms import Frame2D
+from clutter_gym.model.transforms import Frame2D, to_frames
 from planners.capture import CaptureRegion
 from planners.hand2d import GRASP_DEPTH
 
@@ -40,6 +40,15 @@ class GraspTSR:
         low = [self.heading[0], self.lateral[0], self.depth[0]]
         high = [self.heading[1], self.lateral[1], self.depth[1]]
         return rng.uniform(low, high, size=(count, 3))
+
+    def in_hands(self, draws: np.ndarray, poses: np.ndarray) -> np.ndarray:
+        """World poses (N, 3) in the frames of the hands ``draws`` (K, 3) (`hand_frame` of
+        every row at once): (K, N, 3)."""
+        heading, lateral, depth = np.asarray(draws, dtype=float).reshape(-1, 3).T
+        v = np.stack([np.cos(heading), np.sin(heading)], -1)
+        n = np.stack([-v[:, 1], v[:, 0]], -1)
+        origins = np.asarray(self.centre) - depth[:, None] * v - lateral[:, None] * n
+        return to_frames(origins, heading, poses)
 
     def hand_frame(self, heading: float, lateral: float, depth: float) -> Frame2D:
         """The hand's frame (origin hand_base, x along the approach) that holds the object centre
@@ -71,8 +80,7 @@ def grasps_every_sample(
     """For hand poses ``draws`` (K, 3) from `GraspTSR.sample`: does closing the hand there grasp
     every object pose in ``samples`` (N, 3) without pushing? Returns a (K,) mask."""
     samples = np.asarray(samples, dtype=float).reshape(-1, 3)
-    in_hand = np.concatenate(
-        [tsr.hand_frame(*draw).to_frame(samples) for draw in np.asarray(draws, dtype=float)]
-    )
-    static = grasped_still(region, in_hand).reshape(len(draws), len(samples))
+    draws = np.asarray(draws, dtype=float).reshape(-1, 3)
+    in_hand = tsr.in_hands(draws, samples)
+    static = grasped_still(region, in_hand.reshape(-1, 3)).reshape(len(draws), len(samples))
     return np.asarray(static.all(axis=1))

@@ -276,11 +276,23 @@ class Volume:
         """Volume(o, R): object ``name`` placed at every planar pose (N, 3) of a region."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         geometries = [_fcl_geometry(p) for p in spec.primitives]
+        # `_object_transforms` for every pose at once: a volume may hold thousands of poses.
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        zero, one = np.zeros(len(poses)), np.ones(len(poses))
+        rotations = np.stack(
+            [
+                np.stack([c, -s, zero], -1),
+                np.stack([s, c, zero], -1),
+                np.stack([zero, zero, one], -1),
+            ],
+            axis=1,
+        )  # (N, 3, 3)
+        origins = np.column_stack([poses[:, :2], np.full(len(poses), surface_z)])
+        offsets = [rotations @ np.array(p.xyz) for p in spec.primitives]  # (N, 3) each
         parts = []
-        for x, y, theta in poses:
-            for geometry, transform in zip(
-                geometries, _object_transforms(spec, (x, y, theta), surface_z), strict=True
-            ):
+        for i in range(len(poses)):
+            for geometry, offset in zip(geometries, offsets, strict=True):
+                transform = fcl.Transform(rotations[i], origins[i] + offset[i])
                 parts.append((fcl.CollisionObject(geometry, transform), geometry, name))
         return cls(parts)
 

@@ -111,6 +111,18 @@ def rotation_exp(w: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # Planar frames of the pushing actions
 # --------------------------------------------------------------------------------------------
+def to_frames(origins: np.ndarray, angles: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """World poses (N, 3) in K right-handed `Frame2D` frames at once (``origins`` (K, 2),
+    ``angles`` (K,)), as each frame's `Frame2D.to_frame` gives them: (K, N, 3)."""
+    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    angles = np.asarray(angles, dtype=float)
+    x_axis = np.stack([np.cos(angles), np.sin(angles)], -1)[:, None]  # (K, 1, 2)
+    y_axis = np.stack([np.cos(angles + math.pi / 2), np.sin(angles + math.pi / 2)], -1)[:, None]
+    d = p[None, :, :2] - np.asarray(origins, dtype=float)[:, None]  # (K, N, 2)
+    theta = wrap_angle(p[None, :, 2] - angles[:, None])
+    return np.stack([(d * x_axis).sum(-1), (d * y_axis).sum(-1), theta], axis=-1)
+
+
 @dataclass(frozen=True)
 class Frame2D:
     """A planar frame at ``origin`` whose x axis points at ``angle`` (world yaw); its y axis is
