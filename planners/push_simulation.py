@@ -9,6 +9,7 @@ call (`planners.push_kernels`).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -361,11 +362,12 @@ def _contact_twist(
     )
 
 
+@functools.cache
 def warm_up() -> None:
     """Compile the kernels this module runs (or load them from numba's disk cache: about 15 s
     the first time after an install or a change of `push_kernels`, a fraction of a second
     after), by pushing a box and a disc a few millimetres: done before a plan's clock starts,
-    so that no planning time or budget pays for it."""
+    so that no planning time or budget pays for it; once per process."""
     pusher = Pusher(
         (rectangle(np.array([0.0, -0.05]), np.array([0.0, 0.05]), 0.01),),
         (Circle((0.0, 0.06), 0.01),),

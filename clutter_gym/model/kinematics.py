@@ -15,6 +15,7 @@ TCP lines, whose waypoints must stay continuous with the previous one.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -58,9 +59,10 @@ def _cos_sin_roots(a: np.ndarray | float, b: np.ndarray | float, c: float) -> np
     return np.stack([phase + half, phase - half])
 
 
+@functools.cache
 def warm_up() -> None:
     """Compile the kernels (`arm_kernels`) or load them from numba's disk cache before anything
-    is timed: about 12 s the first time after an install, milliseconds after."""
+    is timed: about 12 s the first time after an install, milliseconds after; once per process."""
     arm = ArmKinematics()
     frames = arm._dh_frames(arm.home)
     arm.link_frames(arm.home)
