@@ -19,7 +19,7 @@ from scipy.spatial import ConvexHull
 
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import rotation_2d
-from planners import push_kernels
+from planners import push_kernels, pushing
 from planners.pushing import PATTERNS, positive
 
 
@@ -366,11 +366,17 @@ def _contact_twist(
 def warm_up() -> None:
     """Compile the kernels this module runs (or load them from numba's disk cache: about 15 s
     the first time after an install or a change of `push_kernels`, a fraction of a second
-    after), by pushing a box and a disc a few millimetres: done before a plan's clock starts,
-    so that no planning time or budget pays for it; once per process."""
+    after), by pushing a box and a disc a few millimetres and testing them against the
+    pusher: done before a plan's clock starts, so that no planning time or budget pays for it;
+    once per process. Every kernel called from Python is called here
+    (tests/test_architecture.py checks it)."""
     pusher = Pusher(
         (rectangle(np.array([0.0, -0.05]), np.array([0.0, 0.05]), 0.01),),
         (Circle((0.0, 0.06), 0.01),),
     )
+    pose = np.array([[0.05, 0.0, 0.1]])
     for footprint in (Footprint("box", half_extents=(0.02, 0.03)), Footprint("circle", 0.03)):
-        simulate_push(footprint, pusher, np.array([[0.05, 0.0, 0.1]]), 0.5, 0.02, 0.03)
+        simulate_push(footprint, pusher, pose, 0.5, 0.02, 0.03)
+        overlaps(footprint, pusher, pose, 0.002)
+        contacts(footprint, pusher, pose)
+    pushing.warm_up()

@@ -236,3 +236,12 @@ def solve_contacts(
     c = np.ascontiguousarray(np.broadcast_to(np.asarray(c, float), (big_n,)))
     twist, forces, jammed = push_kernels.lcp_batch(r, n, vp, mu, c, PATTERNS[m])
     return ContactSolution(twist, forces.reshape(big_n, m, 2), jammed)
+
+
+def warm_up() -> None:
+    """Compile the batched solvers' kernels (or load them from numba's cache): one contact and
+    two, each for a single sample (`push_simulation.warm_up` calls this)."""
+    r = np.array([[[0.0, -0.01], [0.0, 0.01]]])
+    n = np.array([[[1.0, 0.0], [1.0, 0.0]]])
+    single_contact_twist(r[:, 0], n[:, 0], n[:, 0], 0.5, 0.02)
+    solve_contacts(r, n, n, 0.5, 0.02)

@@ -62,12 +62,14 @@ def _cos_sin_roots(a: np.ndarray | float, b: np.ndarray | float, c: float) -> np
 @functools.cache
 def warm_up() -> None:
     """Compile the kernels (`arm_kernels`) or load them from numba's disk cache before anything
-    is timed: about 12 s the first time after an install, milliseconds after; once per process."""
+    is timed: about 12 s the first time after an install, milliseconds after; once per process.
+    Every kernel called from Python is called here (tests/test_architecture.py checks it)."""
     arm = ArmKinematics()
     frames = arm._dh_frames(arm.home)
     arm.link_frames(arm.home)
     arm._jacobian(frames)
     arm._descend(frames[7] @ arm._to_tcp, arm.home, 1e-4, 1e-3, 1)
+    rotation_log(np.eye(3))
 
 
 class ArmKinematics:
