@@ -321,6 +321,14 @@ def _disc_candidates(
 
 
 @njit(cache=True)
+def box_corners(hx: float, hy: float, pose: np.ndarray, corners: np.ndarray) -> None:
+    """The corners (4, 2), counter-clockwise, of a box of half extents hx, hy at ``pose``."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    for i, (lx, ly) in enumerate(((hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy))):
+        corners[i, 0], corners[i, 1] = pose[0] + (c * lx - s * ly), pose[1] + (s * lx + c * ly)
+
+
+@njit(cache=True)
 def _box_candidates(
     hx: float,
     hy: float,
@@ -335,10 +343,8 @@ def _box_candidates(
 ) -> None:
     """A box's candidates, per run of polygons with one vertex count: its corners against
     each polygon, then the polygons' vertices against it; then the discs against it."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
     corners = np.empty((4, 2))
-    for i, (lx, ly) in enumerate(((hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy))):
-        corners[i, 0], corners[i, 1] = pose[0] + (c * lx - s * ly), pose[1] + (s * lx + c * ly)
+    box_corners(hx, hy, pose, corners)
     n = start = 0
     while start < len(polygons):
         end = start + 1
@@ -492,9 +498,7 @@ def overlaps(
     for i in range(len(poses)):
         x, y = poses[i, 0], poses[i, 1]
         if box:
-            c, s = math.cos(poses[i, 2]), math.sin(poses[i, 2])
-            for n, (lx, ly) in enumerate(((hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy))):
-                corners[n, 0], corners[n, 1] = x + (c * lx - s * ly), y + (s * lx + c * ly)
+            box_corners(hx, hy, poses[i], corners)
         hit[i] = _polygons_overlap(
             box, x, y, corners, bounding_radius - depth, depth, polygons, counts, centres, radii
         ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii)

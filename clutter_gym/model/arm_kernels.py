@@ -67,16 +67,12 @@ def dh_frames(
 def link_frames(
     q: np.ndarray,
     base: np.ndarray,
-    frame0: np.ndarray,
-    a: np.ndarray,
-    d: np.ndarray,
-    ca: np.ndarray,
-    sa: np.ndarray,
+    chain: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     to_hand: np.ndarray,
 ) -> np.ndarray:
     """World poses of wam_base, the URDF links wam1..wam7 and hand_base (9, 4, 4): the URDF
-    frame of link i+1 is DH frame i turned by q_i about its z axis."""
-    dh = dh_frames(q, frame0, a, d, ca, sa)
+    frame of link i+1 is DH frame i turned by q_i about its z axis. ``chain`` as `descend`'s."""
+    dh = dh_frames(q, *chain)
     out = np.empty((9, 4, 4))
     out[0] = base
     for i in range(7):

@@ -129,7 +129,7 @@ class ArmKinematics:
         These are the frames the URDF collision primitives are attached to.
         """
         return arm_kernels.link_frames(
-            np.asarray(q, dtype=float), self.base, *self._chain, self._to_hand
+            np.asarray(q, dtype=float), self.base, self._chain, self._to_hand
         )
 
     def fk_batch(self, qs: np.ndarray) -> np.ndarray:
