@@ -307,15 +307,21 @@ class _Search:
         if r_next is not None and transit is None:
             return None
         tau = result.trajectory if transit is None else result.trajectory + transit
-        with ctx.stats.timed("volumes"):
-            spec = ctx.beliefs[o].spec
-            vol = (
-                self.arm.volume(tau)
-                + Volume.of_object(o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z)
-                + result.carried
-            )
-            others = sorted(set(ctx.beliefs) - {o} - set(avoid))
-            penetrated = vol.penetrated(ctx.objects_volume(others))
+        others = sorted(set(ctx.beliefs) - {o} - set(avoid))
+        vol = Volume()
+        penetrated: set[str] = set()
+        # Its volume is needed only to find what it penetrates and as the next NGR: never
+        # when nothing else may be moved (the grasp planners avoid every other object).
+        if others or move:
+            with ctx.stats.timed("volumes"):
+                spec = ctx.beliefs[o].spec
+                vol = (
+                    self.arm.volume(tau)
+                    + Volume.of_object(o, spec, result.nu.reshape(-1, 3), ctx.surface.top_z)
+                    + result.carried
+                )
+                if others:
+                    penetrated = vol.penetrated(ctx.objects_volume(others))
         move_next = move + tuple(sorted(penetrated - set(move)))
         if depth + len(move_next) > self.max_depth:
             return None  # a longer plan than this iteration allows (the empty move_next passes)

@@ -435,17 +435,24 @@ def test_volume_queries_agree_with_every_pair_of_parts() -> None:
     assert 0.2 < np.mean(answers) < 0.8  # both answers are exercised
 
 
-def test_lowest_over_any_is_the_lowest_over_each_box() -> None:
-    """The goal's quick test asks whether every pose certainly misses the NGR at once: it must
-    be the per-box answer's minimum, boxes off the map and partly on it included."""
+def test_clear_above_is_the_lowest_over_each_box_above_the_height() -> None:
+    """The goal's quick test asks, for many candidate outcomes at once, whether every pose of
+    each certainly misses the NGR: row by row it must be the per-box answer's minimum against
+    the height, boxes off the map, partly on it and empty rows of the map included."""
     rng = np.random.default_rng(3)
+    answers = []
     for trial in range(30):
         volume = _random_volume(rng, f"v{trial}_")
         for count in (1, 5, 40):
-            centres = rng.uniform(-0.9, 0.9, (count, 2))
-            half = rng.uniform(0.01, 0.12, (count, 2))
-            boxes = np.column_stack(
-                [centres[:, 0] - half[:, 0], centres[:, 0] + half[:, 0]]
-                + [centres[:, 1] - half[:, 1], centres[:, 1] + half[:, 1]]
+            centres = rng.uniform(-0.9, 0.9, (6, count, 2))
+            half = rng.uniform(0.01, 0.12, (6, count, 2))
+            boxes = np.stack(
+                [centres[..., 0] - half[..., 0], centres[..., 0] + half[..., 0]]
+                + [centres[..., 1] - half[..., 1], centres[..., 1] + half[..., 1]],
+                axis=-1,
             )
-            assert volume.lowest_over_any(boxes) == volume.lowest_over(boxes).min()
+            for height in TABLE.top_z + rng.uniform(-0.02, 0.25, 3):
+                expected = [volume.lowest_over(row).min() > height for row in boxes]
+                assert volume.clear_above(boxes, height).tolist() == expected
+                answers += expected
+    assert 0.2 < np.mean(answers) < 0.8  # both answers are exercised

@@ -15,7 +15,6 @@ trajectory. Avoid volumes, negative goal regions and FindPenetrated are all Volu
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable, Collection, Iterable, Mapping
 from typing import NamedTuple
 
@@ -416,10 +415,12 @@ class Volume:
         a quick test before the exact one, since most goal poses are far from the NGR."""
         return self._floor_map().lowest_over(np.asarray(boxes, dtype=float).reshape(-1, 4))
 
-    def lowest_over_any(self, boxes: np.ndarray) -> float:
-        """The lowest of `lowest_over` (inf: nothing over any box), computed at once: whether
-        a set of poses all certainly miss the volume."""
-        return self._floor_map().lowest_over_any(np.asarray(boxes, dtype=float).reshape(-1, 4))
+    def clear_above(self, boxes: np.ndarray, height: float) -> np.ndarray:
+        """For rows of planar boxes (K, N, 4): whether the volume's lowest point over every
+        box of the row (`lowest_over`'s map) is above ``height``, for all rows at once: K
+        quick sufficient tests that objects no taller than that miss the volume."""
+        boxes = np.asarray(boxes, dtype=float)
+        return self._floor_map().clear_above(boxes.reshape(len(boxes), -1, 4), float(height))
 
     def _floor_map(self) -> _FloorMap:
         if self._floor is None:
@@ -500,6 +501,7 @@ class _FloorMap:
     RESOLUTION = 0.01
 
     def __init__(self, parts: tuple[Part, ...]) -> None:
+        self._counts: dict[float, np.ndarray] = {}
         bounds = np.array([part_bounds(obj, g) for obj, g, _ in parts]).reshape(-1, 2, 3)
         if not len(bounds):
             self.origin = np.zeros(2)
@@ -533,25 +535,27 @@ class _FloorMap:
                 out[k] = self.lowest[i0[k] : i1[k] + 1, j0[k] : j1[k] + 1].min()
         return out
 
-    def lowest_over_any(self, boxes: np.ndarray) -> float:
-        """``lowest_over(boxes).min()`` without a loop over the boxes: the cells under any
-        box are marked at once (corner increments and two cumulative sums), then one min."""
-        i0, i1, j0, j1 = self._windows(boxes)
-        keep = (i0 <= i1) & (j0 <= j1)
-        if not keep.any():
-            return math.inf
-        i0, i1, j0, j1 = i0[keep], i1[keep], j0[keep], j1[keep]
-        a, b = i0.min(), j0.min()
-        marks = np.zeros((i1.max() - a + 2, j1.max() - b + 2), dtype=int)
-        for rows, cols, sign in (
-            (i0, j0, 1),
-            (i1 + 1, j0, -1),
-            (i0, j1 + 1, -1),
-            (i1 + 1, j1 + 1, 1),
-        ):
-            np.add.at(marks, (rows - a, cols - b), sign)
-        covered = marks.cumsum(0).cumsum(1)[:-1, :-1] > 0
-        return float(self.lowest[a : i1.max() + 1, b : j1.max() + 1][covered].min())
+    def clear_above(self, boxes: np.ndarray, height: float) -> np.ndarray:
+        """Per row of boxes (K, N, 4): whether no cell under any of its boxes is at or below
+        ``height``, i.e. ``lowest_over(row).min() > height``, with four lookups per box in
+        the cells' prefix counts (built once per height) instead of a min per window."""
+        flat = boxes.reshape(-1, 4)
+        i0, i1, j0, j1 = self._windows(flat)
+        counts = self._low_counts(height)
+        # Windows are [i0, i1] x [j0, j1] with 0 <= i0 <= n: an empty one gets i1 + 1 == i0.
+        i1, j1 = np.where(i0 > i1, i0, i1 + 1), np.where(j0 > j1, j0, j1 + 1)
+        low = counts[i1, j1] - counts[i0, j1] - counts[i1, j0] + counts[i0, j0]
+        return np.asarray(low.reshape(boxes.shape[:-1]).sum(-1) == 0)
+
+    def _low_counts(self, height: float) -> np.ndarray:
+        """Prefix counts (n + 1, m + 1) of the cells at or below ``height``."""
+        counts = self._counts.get(height)
+        if counts is None:
+            n, m = self.lowest.shape
+            counts = np.zeros((n + 1, m + 1), dtype=np.int64)
+            counts[1:, 1:] = (self.lowest <= height).cumsum(0).cumsum(1)
+            self._counts[height] = counts
+        return counts
 
 
 class CollisionWorld:

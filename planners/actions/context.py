@@ -140,11 +140,15 @@ class PlanningContext:
         the action stands stable after it (``final`` holds one row per sample, or several such
         blocks, one per pushing parameter set). A sample that was already off (a sigma2 sample
         of a box overhanging the shelf front) is not the action's doing and does not veto it."""
+        return bool(self.stays_stable_each(name, np.asarray(final).reshape(1, -1, 3))[0])
+
+    def stays_stable_each(self, name: str, finals: np.ndarray) -> np.ndarray:
+        """`stays_stable` for each of K outcomes (K, M, 3) at once."""
         before = self._stable_before(name)
-        after = self.stable_mask(name, final)
-        if len(after) % len(before):
-            return bool(after.all())
-        return bool(np.all(after | ~np.tile(before, len(after) // len(before))))
+        after = self.stable_mask(name, finals).reshape(len(finals), -1)
+        if after.shape[1] % len(before):
+            return np.asarray(after.all(1))
+        return np.asarray(np.all(after | ~np.tile(before, after.shape[1] // len(before)), 1))
 
     def _stable_before(self, name: str) -> np.ndarray:
         """`stable_mask` of U(o) as detected, once per object (every outcome is tested

@@ -90,12 +90,17 @@ class AwayFrom:
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         """A quick sufficient test: stable, and every pose's axis-aligned bounds clear the
         NGR in the top-view map (no exact geometry)."""
+        return bool(self.clearly_accepts_each(ctx, name, np.asarray(final).reshape(1, -1, 3))[0])
+
+    def clearly_accepts_each(
+        self, ctx: PlanningContext, name: str, finals: np.ndarray
+    ) -> np.ndarray:
+        """`clearly_accepts` for each of K final states (K, M, 3) at once."""
         with ctx.stats.timed("goal"):
-            if not ctx.stays_stable(name, final):
-                return False
-            boxes = ctx.beliefs[name].spec.footprint.aabbs(final)
-            lowest = self.ngr.lowest_over_any(boxes)
-            return bool(lowest > ctx.surface.top_z + ctx.beliefs[name].spec.height)
+            spec = ctx.beliefs[name].spec
+            boxes = spec.footprint.aabbs(finals.reshape(-1, 3)).reshape(len(finals), -1, 4)
+            clear = self.ngr.clear_above(boxes, ctx.surface.top_z + spec.height)
+            return np.asarray(clear & ctx.stays_stable_each(name, finals))
 
     def _lowest_over(self, ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
         """The NGR's lowest point over each pose's axis-aligned bounds (inf: nothing over)."""

@@ -102,10 +102,11 @@ def hand_in(
     else:
         return Failure(name, action, why)
     nu = evolve()
-    with ctx.stats.timed("volumes"):
-        swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
-        if swept.intersects(avoid):
-            return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
+    if avoid.parts:  # an empty avoidVol (nothing to avoid) needs no swept volume
+        with ctx.stats.timed("volumes"):
+            swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
+            if swept.intersects(avoid):
+                return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
     return HandIn(push, q_end, end_xy, heading, z, nu)
 
 

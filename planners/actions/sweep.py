@@ -162,7 +162,8 @@ def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) 
 def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
     """A rigid translation along the sweep is a cheap first guess of how far to sweep (the
     simulated evolution decides); it does not depend on where along the hand. The top-view
-    test of the axis-aligned bounds is tried first; when no distance passes it (a turned box's
+    test of the axis-aligned bounds is tried first, for every distance at once; when no
+    distance passes it (a turned box's
     bounds are pessimistic next to the NGR), the exact test decides, every `EXACT_STRIDE`
     steps first and then at the steps just short of the first distance that passes: a failing
     exact test costs milliseconds (a large NGR), and most distances fail."""
@@ -171,22 +172,21 @@ def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) 
     gap = START_CLEARANCE
     shifts = np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
 
-    def accepts(d: float, exact: bool) -> bool:
-        poses = translated(samples, d * direction)
-        if exact:
-            return goal.accepts(ctx, name, poses, False)
-        return goal.clearly_accepts(ctx, name, poses)
+    def accepts(d: float) -> bool:
+        return goal.accepts(ctx, name, translated(samples, d * direction), False)
 
-    for d in shifts:
-        if accepts(d, exact=False):
-            return float(gap + d)
+    moved = np.repeat(samples[None], len(shifts), axis=0)
+    moved[:, :, :2] += (shifts[:, None] * direction)[:, None, :]
+    clear = np.flatnonzero(goal.clearly_accepts_each(ctx, name, moved))
+    if len(clear):
+        return float(gap + shifts[clear[0]])
     coarse = list(range(EXACT_STRIDE - 1, len(shifts), EXACT_STRIDE))
     if coarse[-1] != len(shifts) - 1:
         coarse.append(len(shifts) - 1)
     previous = -1
     for k in coarse:
-        if accepts(shifts[k], exact=True):
-            shorter = (j for j in range(previous + 1, k) if accepts(shifts[j], exact=True))
+        if accepts(shifts[k]):
+            shorter = (j for j in range(previous + 1, k) if accepts(shifts[j]))
             return float(gap + shifts[next(shorter, k)])
         previous = k
     return None
