@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import math
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -366,3 +367,47 @@ def test_a_pose_whose_hand_meets_an_object_is_refused_after_one_check() -> None:
             reached += 1
             np.testing.assert_array_equal(found, expected)
     assert reached >= 2
+
+
+def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`TSR_IK_TRIES` bounds the poses that pay for IK and motions: a pose whose hand overlaps
+    an object of avoidVol (planar test) or that the reachability map rules out is passed over
+    without counting (before, Fig. 15's pick-and-place spent its tries on poses on the box or
+    behind the can and never tried the can's right side)."""
+    static_grasp = importlib.import_module("planners.actions.static_grasp")
+    from planners.actions.goals import Retrieve
+    from planners.actions.results import Failure
+
+    calls: list[tuple[float, bool]] = []  # (aperture's palm half-width, blocked)
+    blocked = [True]
+
+    def fake_hand_in(ctx, arm, name, action, avoid, line, heading, profile, still):  # type: ignore[no-untyped-def]
+        calls.append((profile.pusher.bounds[3], blocked[0]))
+        if blocked[0]:
+            return Failure(name, action, "the hand overlaps box where it stops", "box")
+        return Failure(name, action, "no collision-free IK solution where the hand stops")
+
+    monkeypatch.setattr(static_grasp, "hand_in", fake_hand_in)
+    ctx = _scene_context(("can", "soda_can", (0.70, -0.20, 0.0)))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+
+    def per_aperture() -> list[int]:
+        calls.clear()
+        list(static_grasp.static_grasp(ctx, arm, "can", Retrieve(), Volume()))
+        return list(Counter(width for width, _ in calls).values())
+
+    ik_tries = static_grasp.TSR_IK_TRIES
+    assert max(per_aperture()) > ik_tries  # every blocked pose is passed over, none counted
+    blocked[0] = False
+    counts = per_aperture()
+    assert max(counts) == ik_tries and len(counts) > 1  # then the next aperture
+
+    calls.clear()
+    monkeypatch.setattr(Arm, "push_heights", lambda self, poses: [])
+    found = list(static_grasp.static_grasp(ctx, arm, "can", Retrieve(), Volume()))
+    assert not calls  # no hand-in where the map rules the hand out
+    reasons = Counter(f.reason for f in found if isinstance(f, Failure))
+    assert reasons[static_grasp.OUT_OF_REACH] > ik_tries
+    assert set(reasons) <= {static_grasp.OUT_OF_REACH, static_grasp.NO_TSR_POSE}
