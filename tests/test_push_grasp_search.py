@@ -411,3 +411,39 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     reasons = Counter(f.reason for f in found if isinstance(f, Failure))
     assert reasons[static_grasp.OUT_OF_REACH] > ik_tries
     assert set(reasons) <= {static_grasp.OUT_OF_REACH, static_grasp.NO_TSR_POSE}
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])
+def test_all_offsets_planned_at_once_are_each_offsets_own_plan(kind: str) -> None:
+    """`_plan_pushes` answers every lateral offset with one region query; each answer must be
+    what the hand at that offset alone gives (its frame, nearest edge and query), to the bit."""
+    from clutter_gym.model.transforms import Frame2D
+    from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
+
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _scene_context(("o", kind, (0.72, -0.25, 0.4)))
+    samples = ctx.beliefs["o"].samples
+    footprint = get_object(kind).footprint
+    planned = 0
+    for aperture in push_grasp_apertures(footprint):
+        region = ctx.push_region(footprint, aperture)
+        front = push_grasp.push_grasp_profile(aperture).pusher.bounds[1]
+        for heading in np.radians(np.arange(-180.0, 180.0, 30.0)):
+            offsets = lateral_offsets(samples, heading, region.lateral_reach, 0.01)
+            plans = push_grasp._plan_pushes(ctx, "o", heading, aperture, offsets)
+            for offset, plan in zip(offsets, plans, strict=True):
+                v = np.array([math.cos(heading), math.sin(heading)])
+                centre = samples[0, :2] + offset * np.array([-v[1], v[0]])
+                local = Frame2D((float(centre[0]), float(centre[1])), heading).to_frame(samples)
+                start = centre + (near_edge(footprint, local) - front - START_CLEARANCE) * v
+                in_hand = Frame2D((float(start[0]), float(start[1])), heading).to_frame(samples)
+                inside, need = region.query(in_hand)
+                assert (plan is not None) == bool(inside.all())
+                if plan is not None:
+                    planned += 1
+                    distance = min(need.max() + push_grasp.PUSH_MARGIN, region.d_max)
+                    assert np.array_equal(plan.start, start)
+                    assert np.array_equal(plan.in_hand, in_hand)
+                    assert plan.distance == distance
+                    assert np.array_equal(plan.end, start + distance * v)
+    assert planned > 20

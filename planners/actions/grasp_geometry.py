@@ -38,11 +38,16 @@ def rise_height(surface_z: float, height: float, z: float) -> float:
 def near_edge(footprint: Footprint, poses: np.ndarray) -> float:
     """Smallest x reached by the object's outline over poses (N, 3) in a frame: where a hand
     moving along +x would first meet it."""
+    return float((poses[:, 0] - outline_reach(footprint, poses[:, 2])).min())
+
+
+def outline_reach(footprint: Footprint, theta: np.ndarray) -> np.ndarray:
+    """How far the outline reaches behind its centre along a frame's x, per orientation in
+    that frame."""
     if footprint.shape == "circle":
-        return float((poses[:, 0] - footprint.radius).min())
+        return np.full(np.shape(theta), footprint.radius)
     hx, hy = footprint.half_extents
-    reach = np.abs(hx * np.cos(poses[:, 2])) + np.abs(hy * np.sin(poses[:, 2]))
-    return float((poses[:, 0] - reach).min())
+    return np.abs(hx * np.cos(theta)) + np.abs(hy * np.sin(theta))
 
 
 def translated(poses: np.ndarray, shift: np.ndarray) -> np.ndarray:

@@ -19,12 +19,12 @@ import numpy as np
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.reachability import PUSH_HEIGHT
-from clutter_gym.model.transforms import Frame2D
+from clutter_gym.model.transforms import Frame2D, wrap_angle
 from planners.actions.arm import Arm
 from planners.actions.clearance import stops_overlapping
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
-from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
+from planners.actions.grasp_geometry import START_CLEARANCE, outline_reach
 from planners.actions.hand_in import NU_SPACING, HandIn, hand_in, pick_up_or_release
 from planners.actions.heuristics import push_headings
 from planners.actions.pick_and_place import place
@@ -179,7 +179,7 @@ def _over_offsets(
     pushes = ctx.push_plans.get((name, heading, aperture))
     if pushes is None:  # the samples and the region alone decide them: once per plan
         with ctx.stats.timed("capture"):
-            pushes = [_plan_push(ctx, name, heading, aperture, float(o)) for o in offsets]
+            pushes = _plan_pushes(ctx, name, heading, aperture, offsets)
         ctx.push_plans[(name, heading, aperture)] = pushes
     # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
     # planar tests behind such failures see that object alone.
@@ -242,29 +242,43 @@ class PlannedPush:
     in_hand: np.ndarray
 
 
-def _plan_push(
-    ctx: PlanningContext, name: str, heading: float, aperture: float, offset: float
-) -> PlannedPush | None:
-    """The hand pushing in along ``heading``, offset sideways, until the capture region says
-    every sample is in the hand; None when it misses some."""
+def _plan_pushes(
+    ctx: PlanningContext, name: str, heading: float, aperture: float, offsets: np.ndarray
+) -> list[PlannedPush | None]:
+    """For each lateral offset, the hand pushing in along ``heading``, shifted sideways, until
+    the capture region says every sample is in the hand; None where it misses some. All
+    offsets at once: the samples' orientations in the hand and the outline's nearest edge
+    ahead of the hand do not depend on the offset, one region query answers them all."""
     belief = ctx.beliefs[name]
     spec = belief.spec
     region = ctx.push_region(spec.footprint, aperture)
     profile = push_grasp_profile(aperture)
     v = np.array([math.cos(heading), math.sin(heading)])
     normal = np.array([-v[1], v[0]])
-    centre = belief.samples[0, :2] + offset * normal
-    local = Frame2D((float(centre[0]), float(centre[1])), heading).to_frame(belief.samples)
-    x_front = profile.pusher.bounds[1]
-    back_off = near_edge(spec.footprint, local) - x_front - START_CLEARANCE
-    start_xy = centre + back_off * v
-    in_hand = Frame2D((float(start_xy[0]), float(start_xy[1])), heading).to_frame(belief.samples)
-    inside, need = region.query(in_hand)
-    if not inside.all():
-        return None
-    distance = float(min(need.max() + PUSH_MARGIN, region.d_max))
-    end = start_xy + distance * v
-    return PlannedPush(heading, aperture, offset, start_xy, end, distance, in_hand)
+    samples = belief.samples
+    centres = samples[0, :2] + np.asarray(offsets, dtype=float)[:, None] * normal  # (K, 2)
+    theta = wrap_angle(samples[:, 2] - heading)
+    d = samples[None, :, :2] - centres[:, None, :]  # (K, N, 2)
+    local_x = d @ v
+    outline = outline_reach(spec.footprint, theta)
+    back_off = (local_x - outline).min(1) - profile.pusher.bounds[1] - START_CLEARANCE
+    starts = centres + back_off[:, None] * v
+    d = samples[None, :, :2] - starts[:, None, :]
+    across = Frame2D((0.0, 0.0), heading).y_axis  # the hand frame's y, as `Frame2D` has it
+    in_hand = np.stack([d @ v, d @ across, np.broadcast_to(theta, d.shape[:2])], axis=-1)
+    inside, need = region.query(in_hand.reshape(-1, 3))
+    inside, need = inside.reshape(len(centres), -1), need.reshape(len(centres), -1)
+    plans: list[PlannedPush | None] = []
+    for k, offset in enumerate(offsets):
+        if not inside[k].all():
+            plans.append(None)
+            continue
+        distance = float(min(need[k].max() + PUSH_MARGIN, region.d_max))
+        end = starts[k] + distance * v
+        plans.append(
+            PlannedPush(heading, aperture, float(offset), starts[k], end, distance, in_hand[k])
+        )
+    return plans
 
 
 def _push_at(
