@@ -380,11 +380,11 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     from planners.actions.goals import Retrieve
     from planners.actions.results import Failure
 
-    calls: list[tuple[float, bool]] = []  # (aperture's palm half-width, blocked)
+    calls: list[float] = []  # the palm's half-width: one per aperture
     blocked = [True]
 
     def fake_hand_in(ctx, arm, name, action, avoid, line, heading, profile, still):  # type: ignore[no-untyped-def]
-        calls.append((profile.pusher.bounds[3], blocked[0]))
+        calls.append(profile.pusher.bounds[3])
         if blocked[0]:
             return Failure(name, action, "the hand overlaps box where it stops", "box")
         return Failure(name, action, "no collision-free IK solution where the hand stops")
@@ -396,7 +396,7 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     def per_aperture() -> list[int]:
         calls.clear()
         list(static_grasp.static_grasp(ctx, arm, "can", Retrieve(), Volume()))
-        return list(Counter(width for width, _ in calls).values())
+        return list(Counter(calls).values())
 
     ik_tries = static_grasp.TSR_IK_TRIES
     assert max(per_aperture()) > ik_tries  # every blocked pose is passed over, none counted

@@ -50,7 +50,7 @@ def static_grasp(
     found: list[float] = []  # headings that gave a grasp
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
-        yield from _at_aperture(ctx, arm, name, goal, avoid, aperture, found)
+        yield from _at_aperture(ctx, arm, name, goal, avoid, action, aperture, found)
         if len(found) >= ctx.settings.candidates_per_action:
             return
 
@@ -61,13 +61,13 @@ def _at_aperture(
     name: str,
     goal: Goal,
     avoid: Volume,
+    action: str,
     aperture: float,
     found: list[float],
 ) -> Iterator[Outcome]:
     """Static grasps at one aperture until ``found`` (extended here) holds enough headings
     or `TSR_IK_TRIES` poses have paid for IK."""
     belief = ctx.beliefs[name]
-    action = "pickup" if isinstance(goal, Retrieve) else "pick-and-place"
     centre = belief.samples[0, :2]
     base = base_heading(arm.heading_origin, centre)
     limit = math.radians(ctx.settings.max_heading_deg)
@@ -94,7 +94,7 @@ def _at_aperture(
             return
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        start_xy, end_xy = _hand_line(tsr, profile, ctx, name, (heading, lateral, depth))
+        start_xy, end_xy = _hand_line(ctx, name, tsr, profile, (heading, lateral, depth))
         if not arm.push_heights(((start_xy, heading), (end_xy, heading))):
             yield Failure(name, action, OUT_OF_REACH)
             continue
@@ -134,10 +134,10 @@ def _pick_up(
 
 
 def _hand_line(
-    tsr: GraspTSR,
-    profile: PushGraspProfile,
     ctx: PlanningContext,
     name: str,
+    tsr: GraspTSR,
+    profile: PushGraspProfile,
     pose: tuple[float, float, float],
 ) -> tuple[np.ndarray, np.ndarray]:
     """hand_base where the straight motion to a TSR pose (heading, lateral, depth) starts, a
