@@ -16,7 +16,9 @@ from clutter_gym.model.world import TABLE
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
+from planners.actions.hand_in import OUT_OF_REACH
 from planners.actions.push_grasp import aperture_order, lateral_offsets
+from planners.actions.results import Failure
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures
 from planners.hand2d import default_aperture
@@ -155,6 +157,31 @@ def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
     in_workspace = (np.array([0.70, -0.20]), 0.0)
     assert arm.push_heights([in_workspace]) == [PUSH_HEIGHT, HEIGHTS[1]]
     assert arm.push_heights([in_workspace, near_shoulder]) == [HEIGHTS[1]]
+
+
+def test_a_line_the_map_rules_out_in_its_middle_is_refused_before_ik(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The map's check covers the whole straight line, not only its ends: a line skirting the
+    hole in front of the shoulder, allowed where it starts and stops, is refused without IK."""
+    from planners.actions.hand_in import hand_in
+    from planners.hand2d import push_grasp_profile
+
+    ctx = _box_context()
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    heading = math.radians(-45.0)
+    start = np.array([0.36, -0.16])
+    end = start + 0.2 * np.array([math.cos(heading), math.sin(heading)])
+    assert arm.push_heights([(start, heading), (end, heading)]) == list(HEIGHTS)
+    assert arm.line_heights(start, end, heading) == []
+    calls: list[int] = []
+    monkeypatch.setattr(Arm, "solve", lambda self, target, accept: calls.append(1))
+    profile = push_grasp_profile(0.192)
+    moved = hand_in(
+        ctx, arm, "box", "pickup", Volume(), (start, end), heading, profile, lambda: np.empty(0)
+    )
+    assert isinstance(moved, Failure) and moved.reason == OUT_OF_REACH
+    assert not calls
 
 
 def _scene_context(*objects: tuple[str, str, tuple[float, float, float]]) -> PlanningContext:
@@ -378,7 +405,6 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     behind the can and never tried the can's right side)."""
     static_grasp = importlib.import_module("planners.actions.static_grasp")
     from planners.actions.goals import Retrieve
-    from planners.actions.results import Failure
 
     calls: list[float] = []  # the palm's half-width: one per aperture
     blocked = [True]
@@ -409,8 +435,8 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     found = list(static_grasp.static_grasp(ctx, arm, "can", Retrieve(), Volume()))
     assert not calls  # no hand-in where the map rules the hand out
     reasons = Counter(f.reason for f in found if isinstance(f, Failure))
-    assert reasons[static_grasp.OUT_OF_REACH] > ik_tries
-    assert set(reasons) <= {static_grasp.OUT_OF_REACH, static_grasp.NO_TSR_POSE}
+    assert reasons[OUT_OF_REACH] > ik_tries
+    assert set(reasons) <= {OUT_OF_REACH, static_grasp.NO_TSR_POSE}
 
 
 @pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])

@@ -33,6 +33,9 @@ ARM_CHECK_STEP = 0.02
 """rad between collision-checked configurations along a motion."""
 WAYPOINT_SPACING = 0.025
 """m between waypoints of straight hand motions."""
+LINE_CHECK_SPACING = 0.02
+"""m between the points of a straight hand line the reachability map is asked about (its
+resolution)."""
 POSE_KEY_DECIMALS = 9
 """Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
 
@@ -158,6 +161,16 @@ class Arm:
                     self.reach.may_reach(xy, heading, height) is not False for xy, heading in poses
                 )
             ]
+
+    def line_heights(self, start_xy: np.ndarray, end_xy: np.ndarray, heading: float) -> list[float]:
+        """`push_heights` for a horizontal hand moving straight from hand_base ``start_xy`` to
+        ``end_xy`` at ``heading``: the map may rule out the middle of a line whose ends it
+        allows (a line skirting the hole in front of the shoulder), so it is asked every
+        `LINE_CHECK_SPACING` along it."""
+        length = float(np.linalg.norm(np.asarray(end_xy) - np.asarray(start_xy)))
+        fractions = np.linspace(0.0, 1.0, max(2, math.ceil(length / LINE_CHECK_SPACING) + 1))
+        start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
+        return self.push_heights((start + f * (end - start), heading) for f in fractions)
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""

@@ -31,6 +31,7 @@ from planners.goto import upright_hand
 from planners.hand2d import PushGraspProfile, closure_for_aperture
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
+OUT_OF_REACH = "the reachability map rules out the hand on its way in"
 CLOSING_TURNS = 6
 """Orientations over a half turn at which a box may stand while the fingers close on it."""
 CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
@@ -72,12 +73,14 @@ def hand_in(
     profile: PushGraspProfile,
     evolve: Callable[[], np.ndarray],
 ) -> HandIn | Failure:
-    """The hand moves straight in, as low as the arm can hold it (`Arm.push_heights`), from
+    """The hand moves straight in, as low as the arm can hold it (`Arm.line_heights`), from
     ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
     ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible)."""
     spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
-    heights = arm.push_heights(((start_xy, heading), (end_xy, heading)))
+    heights = arm.line_heights(start_xy, end_xy, heading)
+    if not heights:
+        return Failure(name, action, OUT_OF_REACH)
     why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
     )
@@ -86,7 +89,7 @@ def hand_in(
     hand = HandCommand(0.0, profile.closure)
     free = arm.free_check(avoid, hand)
     why = "no collision-free IK solution where the hand stops"
-    for height in heights or [PUSH_HEIGHT]:
+    for height in heights:
         z = ctx.surface.top_z + height
         q_end = arm.solve(hand_pose(end_xy, heading, z), free)
         if q_end is None:

@@ -15,7 +15,7 @@ from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
-from planners.actions.hand_in import HandIn, hand_in, pick_up_or_release
+from planners.actions.hand_in import OUT_OF_REACH, HandIn, hand_in, pick_up_or_release
 from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
@@ -27,12 +27,11 @@ TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
 TSR_DEPTH = 0.08  # m: the TSR's depth bound, behind the grasp line
 TSR_IK_TRIES = 12
 """Static-grasp poses tried with IK and motions per aperture. A pose the reachability map rules
-out where the hand starts or stops, or whose hand overlaps an object of avoidVol (the planar
+out on the hand's way in, or whose hand overlaps an object of avoidVol (the planar
 test before any IK), costs microseconds and is not one of them: the directions §2.2.6 ranks
 first hit the fewest objects, which behind the object are often out of reach and beside a
 fixed neighbour often blocked by it, and counting them left reachable directions that need
 only movable objects moved untried."""
-OUT_OF_REACH = "the reachability map rules out the hand where it starts or stops"
 NO_TSR_POSE = "no hand pose in the TSR grasps every uncertainty sample"
 TSR_SPREAD = math.radians(4.0)  # rad between the headings of the poses tried
 
@@ -95,7 +94,7 @@ def _at_aperture(
         ctx.check_budget()
         ctx.stats.actions_tried += 1
         start_xy, end_xy = _hand_line(ctx, name, tsr, profile, (heading, lateral, depth))
-        if not arm.push_heights(((start_xy, heading), (end_xy, heading))):
+        if not arm.line_heights(start_xy, end_xy, heading):
             yield Failure(name, action, OUT_OF_REACH)
             continue
         line = (start_xy, end_xy)

@@ -25,7 +25,7 @@ from planners.actions.grasp_geometry import (
     rise_height,
     translated,
 )
-from planners.actions.hand_in import NU_SPACING
+from planners.actions.hand_in import NU_SPACING, OUT_OF_REACH
 from planners.actions.heuristics import sweep_directions
 from planners.actions.results import ActionResult, Failure, Outcome
 from planners.capture import SweepRegion, extreme_parameters
@@ -230,8 +230,11 @@ def _placement(
     # line between, before paying for the simulated evolution (the sweep's most expensive
     # step); another placement along the hand may clear what this hits.
     end_xy = start_xy + guess * frame.x_axis
+    heights = _heights(ctx, arm, plan, start_xy, end_xy)
+    if not heights:
+        return Failure(name, ACTION, OUT_OF_REACH)
     why = "no collision-free IK solution at the start of the sweep"
-    for z in _heights(ctx, arm, plan, start_xy, end_xy):
+    for z in heights:
         if arm.solve(hand_pose(start_xy, plan.approach, z), free) is None:
             continue
         at_z = replace(plan, z=z)
@@ -246,9 +249,8 @@ def _heights(
     ctx: PlanningContext, arm: Arm, plan: _Sweep, start_xy: np.ndarray, end_xy: np.ndarray
 ) -> list[float]:
     """TCP heights (world z) for a sweep from ``start_xy`` to ``end_xy``, lowest first, at
-    which the map rules neither end out (`Arm.push_heights`)."""
-    poses = ((start_xy, plan.approach), (end_xy, plan.approach))
-    return [ctx.surface.top_z + h for h in arm.push_heights(poses) or [PUSH_HEIGHT]]
+    which the map rules no point of the line out (`Arm.line_heights`)."""
+    return [ctx.surface.top_z + h for h in arm.line_heights(start_xy, end_xy, plan.approach)]
 
 
 def _frame_at(
@@ -280,9 +282,8 @@ def sweep_with(
     plan = _plan_sweep(ctx, name, *direction)
     frame, _ = _frame_at(ctx, name, plan, fraction)
     start_xy = np.asarray(frame.origin)
-    plan = replace(
-        plan, z=_heights(ctx, arm, plan, start_xy, start_xy + distance * frame.x_axis)[0]
-    )
+    heights = _heights(ctx, arm, plan, start_xy, start_xy + distance * frame.x_axis)
+    plan = replace(plan, z=heights[0] if heights else plan.z)  # physics decides, even off the map
     samples = ctx.beliefs[name].samples
     nu = np.stack([samples, translated(samples, distance * frame.x_axis)])
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
