@@ -431,7 +431,7 @@ def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     assert max(counts) == ik_tries and len(counts) > 1  # then the next aperture
 
     calls.clear()
-    monkeypatch.setattr(Arm, "push_heights", lambda self, poses: [])
+    monkeypatch.setattr(Arm, "line_heights", lambda self, start, end, heading: [])
     found = list(static_grasp.static_grasp(ctx, arm, "can", Retrieve(), Volume()))
     assert not calls  # no hand-in where the map rules the hand out
     reasons = Counter(f.reason for f in found if isinstance(f, Failure))

@@ -11,6 +11,7 @@ import pytest
 from clutter_gym.model.collision import make_checker
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.reachability import (
+    HEIGHTS,
     PROBE_HAND,
     Grid,
     ReachabilityMap,
@@ -50,6 +51,26 @@ def test_the_precheck_refuses_only_where_no_neighbour_is_reachable() -> None:
     assert built.may_reach(np.array([0.08, 0.08]), math.radians(-60.0), 0.08) is False
     assert built.may_reach(np.array([0.02, 0.02]), 0.0, 0.20) is None  # another height
     assert built.may_reach(np.array([0.5, 0.02]), 0.0, 0.08) is None  # off the grid
+
+
+def test_a_line_is_ruled_out_where_one_of_its_points_is() -> None:
+    """`rules_out_any` (a straight hand line in one lookup) says what `may_reach` says point by
+    point: ruled out where one point is False; off-map points and other heights rule nothing
+    out."""
+    built = shipped_map("table")
+    assert built is not None
+    rng = np.random.default_rng(0)
+    verdicts = set()
+    for _ in range(400):
+        start = rng.uniform((0.2, -1.2), (1.3, 0.8))
+        points = start + np.linspace(0.0, 1.0, 12)[:, None] * rng.uniform(-0.4, 0.4, 2)
+        heading, height = rng.uniform(-math.pi, math.pi), float(rng.choice(HEIGHTS))
+        each = [built.may_reach(p, heading, height) for p in points]
+        verdict = built.rules_out_any(points, heading, height)
+        assert verdict == (False in each)
+        verdicts.add(verdict)
+        assert not built.rules_out_any(points, heading, 0.5)  # no such height on the map
+    assert verdicts == {True, False}
 
 
 @pytest.mark.parametrize("surface", sorted(SURFACES))

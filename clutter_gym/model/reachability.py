@@ -174,22 +174,47 @@ class ReachabilityMap:
         """False when no grid pose around this one (the 4 positions and 2 headings that
         bracket it) is reachable, so IK would fail: skip it; True when one is; None when the
         pose is not on the map (another height, or off the grid): decide with IK."""
+        slab = self._slab(heading, height)
+        if slab is None:
+            return None
+        g = self.grid
+        fx = (hand_base_xy[0] - g.x[0]) / g.resolution
+        fy = (hand_base_xy[1] - g.y[0]) / g.resolution
+        nx, ny = slab.shape[1:]
+        if not (0 <= fx <= nx - 1 and 0 <= fy <= ny - 1):
+            return None
+        i0, j0 = min(int(fx), nx - 2), min(int(fy), ny - 2)
+        return bool(slab[:, i0 : i0 + 2, j0 : j0 + 2].any())
+
+    def rules_out_any(self, hand_base_xys: np.ndarray, heading: float, height: float) -> bool:
+        """Whether `may_reach` is False at any of the hand_base positions (N, 2), all at one
+        heading and height: a straight hand line in one lookup."""
+        slab = self._slab(heading, height)
+        if slab is None:
+            return False
+        g = self.grid
+        xys = np.asarray(hand_base_xys, dtype=float).reshape(-1, 2)
+        fx = (xys[:, 0] - g.x[0]) / g.resolution
+        fy = (xys[:, 1] - g.y[0]) / g.resolution
+        nx, ny = slab.shape[1:]
+        on = (fx >= 0) & (fx <= nx - 1) & (fy >= 0) & (fy <= ny - 1)
+        i0 = np.minimum(fx[on].astype(np.int64), nx - 2)
+        j0 = np.minimum(fy[on].astype(np.int64), ny - 2)
+        near = slab[:, i0, j0] | slab[:, i0 + 1, j0] | slab[:, i0, j0 + 1] | slab[:, i0 + 1, j0 + 1]
+        return bool(not near.any(axis=0).all())
+
+    def _slab(self, heading: float, height: float) -> np.ndarray | None:
+        """The map at the two grid headings that bracket ``heading`` (2, xs, ys), at the grid
+        height ``height`` is; None when it is none of the map's heights."""
         g = self.grid
         h = int(np.argmin(np.abs(np.asarray(g.heights) - height)))
         if abs(g.heights[h] - height) > 1e-3:
             return None
-        fx = (hand_base_xy[0] - g.x[0]) / g.resolution
-        fy = (hand_base_xy[1] - g.y[0]) / g.resolution
-        nx, ny = self.reach.shape[2:]
-        if not (0 <= fx <= nx - 1 and 0 <= fy <= ny - 1):
-            return None
-        i0, j0 = min(int(fx), nx - 2), min(int(fy), ny - 2)
         step = g.headings_deg[1] - g.headings_deg[0]
         count = len(g.headings_deg)
         fk = math.remainder(math.degrees(heading) - g.headings_deg[0], 360.0) % 360.0 / step
         k0 = math.floor(fk) % count
-        near = [k0, (k0 + 1) % count]
-        return bool(self.reach[h][near][:, i0 : i0 + 2, j0 : j0 + 2].any())
+        return self.reach[h][[k0, (k0 + 1) % count]]
 
     def dexterity(self, height: int = 0, standoff: float = GRASP_STANDOFF) -> np.ndarray:
         """(xs, ys): from how many headings the hand, at grasp height ``height`` (an index of

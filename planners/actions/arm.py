@@ -167,10 +167,16 @@ class Arm:
         ``end_xy`` at ``heading``: the map may rule out the middle of a line whose ends it
         allows (a line skirting the hole in front of the shoulder), so it is asked every
         `LINE_CHECK_SPACING` along it."""
-        length = float(np.linalg.norm(np.asarray(end_xy) - np.asarray(start_xy)))
-        fractions = np.linspace(0.0, 1.0, max(2, math.ceil(length / LINE_CHECK_SPACING) + 1))
         start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
-        return self.push_heights((start + f * (end - start), heading) for f in fractions)
+        length = float(np.linalg.norm(end - start))
+        fractions = np.linspace(0.0, 1.0, max(2, math.ceil(length / LINE_CHECK_SPACING) + 1))
+        points = start + fractions[:, None] * (end - start)
+        with self.stats.timed("reach"):
+            return [
+                height
+                for height in HEIGHTS
+                if self.reach is None or not self.reach.rules_out_any(points, heading, height)
+            ]
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""
