@@ -78,14 +78,14 @@ def hand_in(
     ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible)."""
     spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
-    heights = arm.line_heights(start_xy, end_xy, heading)
-    if not heights:
-        return Failure(name, action, OUT_OF_REACH)
     why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
     )
-    if blocker:
+    if blocker:  # first: what blocks the hand decides which objects a plan moves
         return Failure(name, action, why, blocker)
+    heights = arm.line_heights(start_xy, end_xy, heading)
+    if not heights:
+        return Failure(name, action, OUT_OF_REACH)
     hand = HandCommand(0.0, profile.closure)
     free = arm.free_check(avoid, hand)
     why = "no collision-free IK solution where the hand stops"
