@@ -151,12 +151,14 @@ def test_the_hand_pushes_as_low_as_the_map_allows() -> None:
     table), and every height the map allows in the open workspace, lowest first."""
     ctx = _box_context()
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
-    near_shoulder = (np.array([0.44, -0.11]), math.radians(30.0))
-    assert arm.reach is not None and arm.reach.may_reach(*near_shoulder, PUSH_HEIGHT) is False
-    assert arm.push_heights([near_shoulder]) == [HEIGHTS[1]]
-    in_workspace = (np.array([0.70, -0.20]), 0.0)
-    assert arm.push_heights([in_workspace]) == [PUSH_HEIGHT, HEIGHTS[1]]
-    assert arm.push_heights([in_workspace, near_shoulder]) == [HEIGHTS[1]]
+    near_shoulder, in_workspace = np.array([0.44, -0.11]), np.array([0.70, -0.20])
+    heading = math.radians(30.0)
+    assert (
+        arm.reach is not None and arm.reach.may_reach(near_shoulder, heading, PUSH_HEIGHT) is False
+    )
+    assert arm.line_heights(near_shoulder, near_shoulder, heading) == [HEIGHTS[1]]
+    assert arm.line_heights(in_workspace, in_workspace, heading) == [PUSH_HEIGHT, HEIGHTS[1]]
+    assert arm.line_heights(in_workspace, near_shoulder, heading) == [HEIGHTS[1]]
 
 
 def test_a_line_the_map_rules_out_in_its_middle_is_refused_before_ik(
@@ -172,7 +174,8 @@ def test_a_line_the_map_rules_out_in_its_middle_is_refused_before_ik(
     heading = math.radians(-45.0)
     start = np.array([0.36, -0.16])
     end = start + 0.2 * np.array([math.cos(heading), math.sin(heading)])
-    assert arm.push_heights([(start, heading), (end, heading)]) == list(HEIGHTS)
+    assert arm.reach is not None
+    assert all(arm.reach.may_reach(p, heading, h) for p in (start, end) for h in HEIGHTS)
     assert arm.line_heights(start, end, heading) == []
     calls: list[int] = []
     monkeypatch.setattr(Arm, "solve", lambda self, target, accept: calls.append(1))

@@ -146,27 +146,13 @@ class Arm:
                 solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
             return self.kinematics.select(solutions, accept)
 
-    def push_heights(self, poses: Iterable[tuple[np.ndarray, float]]) -> list[float]:
-        """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
-        are pushed "as low as possible"), for a horizontal hand that must stand at these
-        (hand_base xy, heading) poses: the map's heights at which it rules none of them out.
-        Far out the forearm slopes down to the support and the lowest may be out of reach."""
-        poses = list(poses)
-        with self.stats.timed("reach"):
-            return [
-                height
-                for height in HEIGHTS
-                if self.reach is None
-                or all(
-                    self.reach.may_reach(xy, heading, height) is not False for xy, heading in poses
-                )
-            ]
-
     def line_heights(self, start_xy: np.ndarray, end_xy: np.ndarray, heading: float) -> list[float]:
-        """`push_heights` for a horizontal hand moving straight from hand_base ``start_xy`` to
-        ``end_xy`` at ``heading``: the map may rule out the middle of a line whose ends it
-        allows (a line skirting the hole in front of the shoulder), so it is asked every
-        `LINE_CHECK_SPACING` along it."""
+        """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
+        are pushed "as low as possible"), for a horizontal hand moving straight from hand_base
+        ``start_xy`` to ``end_xy`` at ``heading``: the map's heights at which it rules out no
+        point of the line, asked every `LINE_CHECK_SPACING` (a line whose ends it allows may
+        skirt the hole in front of the shoulder). Far out the forearm slopes down to the
+        support and the lowest may be out of reach."""
         start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
         length = float(np.linalg.norm(end - start))
         fractions = np.linspace(0.0, 1.0, max(2, math.ceil(length / LINE_CHECK_SPACING) + 1))
