@@ -33,9 +33,6 @@ ARM_CHECK_STEP = 0.02
 """rad between collision-checked configurations along a motion."""
 WAYPOINT_SPACING = 0.025
 """m between waypoints of straight hand motions."""
-LINE_CHECK_SPACING = 0.02
-"""m between the points of a straight hand line the reachability map is asked about (its
-resolution)."""
 POSE_KEY_DECIMALS = 9
 """Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
 
@@ -150,19 +147,17 @@ class Arm:
         """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
         are pushed "as low as possible"), for a horizontal hand moving straight from hand_base
         ``start_xy`` to ``end_xy`` at ``heading``: the map's heights at which it rules out no
-        point of the line, asked every `LINE_CHECK_SPACING` (a line whose ends it allows may
+        point of the line, asked at the map's own resolution (a line whose ends it allows may
         skirt the hole in front of the shoulder). Far out the forearm slopes down to the
         support and the lowest may be out of reach."""
+        if self.reach is None:
+            return list(HEIGHTS)
         start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
         length = float(np.linalg.norm(end - start))
-        fractions = np.linspace(0.0, 1.0, max(2, math.ceil(length / LINE_CHECK_SPACING) + 1))
-        points = start + fractions[:, None] * (end - start)
+        steps = max(1, math.ceil(length / self.reach.grid.resolution))
+        points = start + np.linspace(0.0, 1.0, steps + 1)[:, None] * (end - start)
         with self.stats.timed("reach"):
-            return [
-                height
-                for height in HEIGHTS
-                if self.reach is None or not self.reach.rules_out_any(points, heading, height)
-            ]
+            return [h for h in HEIGHTS if not self.reach.rules_out_any(points, heading, h)]
 
     def _unreachable(self, target: np.ndarray) -> bool:
         """Whether the map rules the target out (only for a horizontal hand on its grid)."""
