@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 import math
 import zlib
+from collections.abc import Iterator
 from dataclasses import replace
 from importlib import resources
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,14 +20,18 @@ from agents.experiments.suites import table1_suite
 from clutter_gym.model import herb as hm
 from clutter_gym.model.arm_geometry import ArmGeometry
 from clutter_gym.model.collision import RobotCollision, Volume
+from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import get_object
 from clutter_gym.model.scene import load_scene
-from clutter_gym.model.trajectory import chunk_rows
+from clutter_gym.model.trajectory import Segment, Trajectory, chunk_rows
 from clutter_gym.model.world import TABLE
-from planners.actions.results import Failure, FailureLog
+from planners import rearrange as rearrange_module
+from planners.actions.context import PlanningContext
+from planners.actions.goals import Retrieve
+from planners.actions.results import ActionResult, Failure, FailureLog
 from planners.actions.settings import PlannerSettings
-from planners.rearrange import Plan, plan_retrieval
+from planners.rearrange import Plan, _Candidate, _Search, plan_retrieval
 from planners.uncertainty import ObjectBelief, sample_poses
 
 SIGMA2 = (0.005, 0.034)
@@ -349,3 +355,49 @@ def test_failure_log_ranks_the_objects_that_blocked_an_objects_actions() -> None
     log.record(Failure("can", "sweep", "the hand overlaps bottle where the sweep starts", "bottle"))
     assert log.blocking("goal") == ["box", "can", "bottle"]
     assert log.blocking("can") == ["bottle"] and log.blocking("box") == []
+
+
+def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Within one action, the goal's first candidate penetrates two objects and its second
+    one: the second is searched first (a shorter plan), though both could lead to a plan."""
+    places = (("can", 0.0), ("a", 0.2), ("b", -0.2))
+    beliefs = [belief(n, "soda_can", (0.7, y, 0.0), n=1) for n, y in places]
+    ctx = PlanningContext(
+        TABLE,
+        {b.name: b for b in beliefs},
+        PlannerSettings(),
+        TABLE.default_goal_region,
+        np.random.default_rng(0),
+    )
+    still = Trajectory((Segment("still", np.zeros((2, 7)), HandCommand()),))
+    penetrates: dict[str, list[tuple[str, ...]]] = {"can": [("a", "b"), ("a",)], "a": [()]}
+    searched: list[tuple[str, tuple[str, ...]]] = []
+
+    def action(ctx: object, arm: object, name: str, *_: object) -> Iterator[ActionResult]:
+        for k in range(len(penetrates[name])):
+            yield ActionResult("fake", name, still, np.zeros((1, 1, 3)), False, {"k": k})
+
+    def assess(
+        self: _Search, result: ActionResult, o: str, move: tuple[str, ...], *_: object
+    ) -> _Candidate:
+        new = tuple(m for m in penetrates[o][int(result.details["k"])] if m not in move)
+        return _Candidate(result, None, still, Volume(), new)
+
+    def descend(self: _Search, candidate: _Candidate, o: str, *rest: Any) -> Any:
+        searched.append((o, candidate.penetrated))
+        return original(self, candidate, o, *rest)
+
+    original = _Search._descend
+    monkeypatch.setitem(rearrange_module.ACTIONS, "fake", action)
+    monkeypatch.setattr(_Search, "_assess", assess)
+    monkeypatch.setattr(_Search, "_descend", descend)
+    monkeypatch.setattr(_Search, "_approach", lambda self, tau: still)
+    search = _Search(ctx, None, hm.RIGHT_ARM_HOME, ("fake",))  # type: ignore[arg-type]
+    search.max_depth = 2
+    steps = search.rearrange("can", Retrieve(), Volume(), (), (), None, 0)
+    assert steps is not None
+    assert searched[0] == ("can", ("a",))
+    assert ("can", ("a", "b")) not in searched  # the shorter one led to a plan
+    assert [(s.result.obj, s.result.details["k"]) for s in steps] == [("a", 0), ("can", 1)]
