@@ -285,6 +285,20 @@ class SweepRegion:
         )
 
 
+BOX_PUSH_GRASP_SETTINGS = CaptureSettings(box_thetas=36, box_y_resolution=0.005)
+"""The grid of boxes' push-grasp regions: every 5 deg and 5 mm. A pose counts as inside only
+where all four grid nodes around it do, so with 15 deg between nodes a box standing a few
+degrees either side of end-on in a narrow preshape had to fit the bands at -15, 0 and +15 deg
+at once: at the poptart box's 0.111 m preshape they overlap over 1 cm, where the band at 0 deg
+is 5 cm wide, and no sigma2 detection's samples ever fitted. At 5 deg the overlap of the bands
+at -5, 0 and +5 deg is 4.4 cm. Sweeps and cylinders keep the default grid."""
+
+
+def push_grasp_settings(footprint: Footprint) -> CaptureSettings:
+    """The settings a push-grasp region of this outline is built and shipped with."""
+    return BOX_PUSH_GRASP_SETTINGS if footprint.shape == "box" else CaptureSettings()
+
+
 def push_grasp_region(
     footprint: Footprint,
     aperture: float,
@@ -292,7 +306,7 @@ def push_grasp_region(
     cache_dir: Path | None = None,
 ) -> CaptureRegion:
     """The push-grasp capture region of an object outline at a hand aperture (m), cached."""
-    settings = settings or CaptureSettings()
+    settings = settings or push_grasp_settings(footprint)
     check_fits(footprint, aperture)
     hand = push_grasp_profile(aperture)
     arrays = cached_arrays(
@@ -401,7 +415,8 @@ def precompute(directory: Path) -> list[Path]:
             apertures = {*push_grasp_apertures(spec.footprint), default_aperture(spec.footprint)}
             for aperture in sorted(apertures):
                 push_grasp_region(spec.footprint, aperture, cache_dir=directory)
-                wanted.add(cache_name("push_grasp", spec.footprint, aperture, settings))
+                grid = push_grasp_settings(spec.footprint)
+                wanted.add(cache_name("push_grasp", spec.footprint, aperture, grid))
         sweep_region(spec.footprint, cache_dir=directory)
         wanted.add(cache_name("sweep", spec.footprint, STRAIGHT_APERTURE, settings))
     for stale in directory.glob("*.npz"):

@@ -16,6 +16,7 @@ from planners.capture import (
     CaptureRegion,
     push_grasp_apertures,
     push_grasp_region,
+    push_grasp_settings,
     sweep_region,
 )
 from planners.capture_build import SHIPPED_DIR, CaptureSettings, cache_name
@@ -215,14 +216,14 @@ def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path
     """Every region the planner, the primitive env and validate-capture use by default ships
     with the package under its current key (a change to the simulation or settings would miss
     it and rebuild for minutes), and a shipped file is what a fresh build gives."""
-    settings = CaptureSettings()
     for spec in OBJECTS.values():
         footprint = spec.footprint
-        wanted = [("sweep", STRAIGHT_APERTURE)]
+        wanted = [("sweep", STRAIGHT_APERTURE, CaptureSettings())]
         if spec.graspable:
             searched = {*push_grasp_apertures(footprint), default_aperture(footprint)}
-            wanted += [("push_grasp", a) for a in sorted(searched)]
-        for kind, aperture in wanted:
+            grid = push_grasp_settings(footprint)
+            wanted += [("push_grasp", a, grid) for a in sorted(searched)]
+        for kind, aperture, settings in wanted:
             assert (SHIPPED_DIR / cache_name(kind, footprint, aperture, settings)).exists(), (
                 f"{spec.kind} {kind} at {aperture}: run python -m planners.capture"
             )
@@ -233,6 +234,24 @@ def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path
     # differently from the build that shipped the file (a push distance that differs by 1e-15).
     np.testing.assert_allclose(shipped.s_req, fresh.s_req, rtol=0, atol=1e-12)
     np.testing.assert_allclose(shipped.s_contact, fresh.s_contact, rtol=0, atol=1e-12)
+
+
+def test_a_box_a_few_degrees_off_end_on_is_captured_by_the_narrow_preshape() -> None:
+    """The poptart box end-on in the 0.111 m preshape: the band of captured lateral offsets at
+    0 deg is about 5 cm wide, so a sigma2 cloud (+-1 cm, +-4 deg) fits it. A pose counts only
+    where the four grid nodes around it do: with 15 deg between nodes the bands at -15, 0 and
+    +15 deg had to hold it at once, and they overlap over about 1 cm."""
+    poptart = OBJECTS["poptart_box"].footprint
+    region = push_grasp_region(poptart, 0.111)
+    cloud = np.array(
+        [
+            (region.grid.x_start, y, np.radians(theta))
+            for y in (-0.01, 0.0, 0.01)
+            for theta in (-4.0, 0.0, 4.0)
+        ]
+    )
+    assert region.query(cloud)[0].all()
+    assert not region.query(cloud + [0.0, 0.04, 0.0])[0].all()  # the band has edges
 
 
 def _truncate(path: Path) -> None:

@@ -81,7 +81,13 @@ from planners.actions.push_grasp import PUSH_MARGIN
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.actions.static_grasp import TSR_DEPTH
 from planners.actions.sweep import SWEEP_RETREAT
-from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, sweep_region
+from planners.capture import (
+    BOX_PUSH_GRASP_SETTINGS,
+    CaptureRegion,
+    SweepRegion,
+    push_grasp_region,
+    sweep_region,
+)
 from planners.hand2d import (
     check_fits,
     closure_for_aperture,
@@ -99,9 +105,10 @@ LIFT_WAYPOINTS = 4
 GRID_Y = 0.20  # m either side of the hand axis (push-grasps)
 GRID_X = (0.05, 0.45)  # m ahead of hand_base (push-grasps)
 STATIC_MARGIN = 0.01  # m of static-grasp grid beyond the fingertip line
-BOX_ANGLES = 12
-"""Object orientations over [0, pi) for boxes (Fig. 9(d)): every 15 deg, the regions' own theta
-grid (`planners.capture_build.CaptureSettings.box_thetas`). At 30 deg the grid never stood the
+BOX_ANGLES = BOX_PUSH_GRASP_SETTINGS.box_thetas
+"""Object orientations over [0, pi) for boxes (Fig. 9(d)): every 5 deg, the push-grasp
+regions' own theta grid (`planners.capture.BOX_PUSH_GRASP_SETTINGS`), so that poses between
+the 15 deg steps of the sweep regions' grid are stood too. At 30 deg the grid never stood the
 poptart box at 67-80 deg, where closing on it within 7 mm of the fingertip line toppled it."""
 SIDES = {1: "right", -1: "left"}  # a sweep's handedness: the side of the hand that pushes
 SWEEP_MARGIN = 0.03  # m of sweep grid beyond the hand's span and beyond the region's reach
