@@ -236,7 +236,7 @@ def grasp_depth(footprint: Footprint, aperture: float) -> float:
     """m behind the fingertip line a push-grasp's capture region asks of the centre of an
     object that nothing touches: `GRASP_DEPTH` for a cylinder in a preshape narrower than the
     straight one, none otherwise (the wider preshapes wrap around a cylinder; a box pushed the
-    planner's distance, its need plus `planners.actions.push_grasp.PUSH_MARGIN`, held in every
+    planner's distance, its need plus `planners.capture.BOX_PUSH_MARGIN`, held in every
     close inside its regions, docs/results/capture_poptart.md)."""
     narrow = aperture < STRAIGHT_APERTURE - 1e-9
     return GRASP_DEPTH if footprint.shape == "circle" and narrow else 0.0

@@ -65,7 +65,7 @@ def grasped_still(region: CaptureRegion, in_hand: np.ndarray) -> np.ndarray:
     fingertip line at every preshape. Where closing itself needs that depth
     (`planners.hand2d.grasp_depth`) the region asks for it too; at the straight and V preshapes
     a cylinder's is the static grasp's margin against a true pose beyond the samples, which a
-    push-grasp gets from pushing `planners.actions.push_grasp.PUSH_MARGIN` further (without it,
+    push-grasp gets from pushing `planners.capture.PUSH_MARGIN` further (without it,
     pick-and-place closed 8 mm behind the line at 0.192 m in Table 1 high_06 sigma2, and a
     true bottle beyond the samples left the table in 2 of 10 trials)."""
     in_hand = np.asarray(in_hand, dtype=float).reshape(-1, 3)

@@ -102,7 +102,7 @@ def test_a_static_grasp_keeps_the_depth_for_a_box_too() -> None:
     """The poptart box turned 74 deg in the hand, 1 mm behind the fingertip line, toppled when
     the fingers closed on it where it stood (Table 1 medium_04 without noise; 6 mm behind at
     three of five headings; held 11 mm behind): the push-grasp region holds it there without a
-    push (a push-grasp pushes PUSH_MARGIN further), a static grasp only GRASP_DEPTH behind."""
+    push (a push-grasp pushes its `push_margin` further), a static grasp only GRASP_DEPTH behind."""
     box = get_object("poptart_box")
     region = push_grasp_region(box.footprint, STRAIGHT_APERTURE)
     line = push_grasp_profile(STRAIGHT_APERTURE).grasp_line

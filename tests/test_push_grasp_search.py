@@ -470,7 +470,7 @@ def test_all_offsets_planned_at_once_are_each_offsets_own_plan(kind: str) -> Non
                 assert (plan is not None) == bool(inside.all())
                 if plan is not None:
                     planned += 1
-                    distance = min(need.max() + push_grasp.PUSH_MARGIN, region.d_max)
+                    distance = min(need.max() + region.push_margin, region.d_max)
                     assert np.array_equal(plan.start, start)
                     assert np.array_equal(plan.in_hand, in_hand)
                     assert plan.distance == distance

@@ -3,8 +3,8 @@
 Each trial places one object at a grid pose of the region's frame in the pybullet env, starts the
 arm where the action starts and executes the whole action with the simulated arm and hand. A
 push-grasp region is tested as the planner uses it: where the region predicts a capture (it asks
-for at most `DISTANCE - PUSH_MARGIN`), the hand pushes what the planner would push, the
-region's distance plus `PUSH_MARGIN` (rounded down to `DISTANCE_STEP`: never further than the
+for at most `DISTANCE` less its `push_margin`), the hand pushes what the planner would push,
+the region's distance plus that margin (rounded down to `DISTANCE_STEP`: never further than the
 planner), and closes there; elsewhere it pushes `DISTANCE`, which tells the physical successes
 the region leaves out (the poses it holds only within the last margin of `DISTANCE` are counted
 apart as ``failures_at_edge``). The report counts predicted-inside failures (must be 0: the
@@ -77,7 +77,6 @@ from clutter_gym.model.transforms import Frame2D, tilt_of_quaternion
 from clutter_gym.model.world import TABLE
 from planners.actions.arm import Arm, Free
 from planners.actions.grasp_geometry import GRASP_CLOSURE, LIFT, rise_height
-from planners.actions.push_grasp import PUSH_MARGIN
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.actions.static_grasp import TSR_DEPTH
 from planners.actions.sweep import SWEEP_RETREAT
@@ -642,11 +641,11 @@ def _jobs(
 
 def push_distances(region: CaptureRegion, poses: np.ndarray) -> np.ndarray:
     """m the hand pushes each grid pose (N,): where the region predicts a capture, what the
-    planner pushes (the region's distance plus `PUSH_MARGIN`), rounded down to
+    planner pushes (the region's distance plus its `push_margin`), rounded down to
     `DISTANCE_STEP` (a set-up per distance; never further than the planner); `DISTANCE`
     elsewhere."""
-    predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)  # as `predictions` says
-    planned = np.where(predicted, region.query(poses)[1] + PUSH_MARGIN, DISTANCE)
+    predicted = region.contains(poses, DISTANCE - region.push_margin)  # as `predictions` says
+    planned = np.where(predicted, region.query(poses)[1] + region.push_margin, DISTANCE)
     steps = np.floor(planned / DISTANCE_STEP + 1e-9)
     return np.where(predicted, np.round(steps * DISTANCE_STEP, 6), DISTANCE)
 
@@ -655,7 +654,7 @@ def predictions(
     region: CaptureRegion | SweepRegion, poses: np.ndarray, action: str = "push-grasp"
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which grid poses the region predicts a success for, and which are at its edge: push-grasp
-    poses in the region at `DISTANCE` but not once the planner's `PUSH_MARGIN` is added; static
+    poses in the region at `DISTANCE` but not once the planner's `push_margin` is added; static
     grasps the region holds without a push that the planner does not close on (within
     `planners.hand2d.GRASP_DEPTH` of the fingertip line)."""
     if isinstance(region, SweepRegion):
@@ -664,7 +663,7 @@ def predictions(
         predicted = grasped_still(region, poses)
         inside, push = region.query(poses)
         return predicted, inside & (push <= 0.0) & ~predicted
-    predicted = region.contains(poses, DISTANCE - PUSH_MARGIN)
+    predicted = region.contains(poses, DISTANCE - region.push_margin)
     return predicted, region.contains(poses, DISTANCE) & ~predicted
 
 

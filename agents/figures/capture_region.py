@@ -29,7 +29,6 @@ from agents.experiments.capture_objects import resolve_kind
 from clutter_gym.model.files import atomic_write_bytes
 from clutter_gym.model.noise import NOISE_LEVELS
 from clutter_gym.model.objects import Footprint, get_object
-from planners.actions.push_grasp import PUSH_MARGIN
 from planners.capture import push_grasp_region, sweep_region
 from planners.hand2d import default_aperture, push_grasp_profile, sweep_profile
 from planners.push_simulation import Pusher
@@ -48,6 +47,7 @@ class _View:
     detection: tuple[float, float, float]  # panel (b)'s detected pose
     x_label: str
     y_label: str
+    margin: float = 0.0  # m the planner pushes beyond the region's need (push-grasps)
 
 
 def _view(kind: str, action: str, aperture: float | None = None) -> _View:
@@ -74,6 +74,7 @@ def _view(kind: str, action: str, aperture: float | None = None) -> _View:
         (0.45, 0.0, 0.0),
         "x along the push [m]",
         "y [m]",
+        region.push_margin,
     )
 
 
@@ -145,8 +146,7 @@ def capture_figure(
         ax = axes[2]
         report = validation
         # The region the validation predicted with: a push-grasp's less the planner's margin.
-        margin = PUSH_MARGIN if action == "push-grasp" else 0.0
-        gx, gy, mask = _region_mask(view, report["distance_m"] - margin)
+        gx, gy, mask = _region_mask(view, report["distance_m"] - view.margin)
         ax.contour(gx, gy, mask, levels=[0.5], colors=["k"], linewidths=1.5)
         # The unrotated scene, the right side of the hand (sweeps) and for boxes the theta = 0
         # slice the contours are drawn for.

@@ -33,7 +33,6 @@ from planners.actions.static_grasp import static_grasp
 from planners.capture import extreme_parameters, push_grasp_apertures
 from planners.hand2d import default_aperture, push_grasp_profile
 
-PUSH_MARGIN = 0.01  # m pushed beyond the capture region's requirement
 OFFSET_STEP = 0.01  # m between the lateral offsets tried (the paper's "user defined step")
 NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
 MISSES_SAMPLES = "the capture region misses some uncertainty samples"
@@ -273,7 +272,7 @@ def _plan_pushes(
         if not inside[k].all():
             plans.append(None)
             continue
-        distance = float(min(need[k].max() + PUSH_MARGIN, region.d_max))
+        distance = float(min(need[k].max() + region.push_margin, region.d_max))
         end = starts[k] + distance * v
         plans.append(
             PlannedPush(heading, aperture, float(offset), starts[k], end, distance, in_hand[k])
