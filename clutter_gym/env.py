@@ -379,6 +379,7 @@ class _RetrievalEnv(gym.Env[Observation, np.ndarray], ABC):
         self._controller = self._make_controller(arm, hand)
 
     def _substep(self) -> bool:
+        self.herb.hold_fingers()
         self.sim.step()
         self._sim_steps += 1
         if self._on_frame is not None and self._sim_steps % self._recording_every == 0:

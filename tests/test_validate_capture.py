@@ -289,6 +289,26 @@ def test_a_box_nearly_across_the_hand_is_held_after_the_planners_push(
     assert outcome == "success", (distance, outcome)
 
 
+def test_two_fingers_closing_on_a_box_do_not_back_drive_the_third() -> None:
+    """The BH-280's worm gears hold a stalled finger. A poptart box across the hand is met by
+    F1 and F2 first; position servos limited to the drive's effort let the two turn F3 back to
+    fully open (0.87 -> 0 rad) and slide the box 4 cm sideways, into whatever stood beside the
+    hand (Table 1 high_09). F3 must hold where it stalled, and the box move no further sideways
+    than the 2.6 cm its 14 cm leave in the 19.2 cm between the fingertips."""
+    spec = get_object("poptart_box")
+    setup = vc.plan_push(spec, STRAIGHT_APERTURE, 0.0, 0.06)
+    env = ClutterRetrieveEnv()
+    assert vc.start_trial(env, setup, "poptart_box", (0.21, 0.0, math.pi / 2)) == ""
+    for action in setup.actions:
+        env.step(action)
+    _, f1, f2, f3 = env.herb.hand_state()
+    position, _ = env.sim.base_pose("object")
+    frame = setup.frame
+    env.close()
+    assert f3 > 0.8 and min(f1, f2) > 0.8
+    assert abs(frame.to_frame(np.array([[*position[:2], 0.0]]))[0, 1]) < 0.03
+
+
 @pytest.mark.parametrize("angle", [0.0, math.pi / 2])
 def test_a_box_set_down_and_let_go_stays_standing(angle: float) -> None:
     """Opening the hand reverses each finger from where it stands (the BH-280's worm gears): a

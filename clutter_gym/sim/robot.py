@@ -30,6 +30,12 @@ from clutter_gym.sim.simulator import Simulator
 FINGERS = ("f1", "f2", "f3")
 FINGER_FRICTION = 1.0  # rubber-padded fingertips and palm
 ARM_POSITION_GAIN = 0.3  # pybullet's position-control gain: stiff enough to push a 1 kg box
+WORM_GEAR_EFFORT = 50.0
+"""N m a finger joint resists being turned back open with: the BH-280 drives its fingers through
+worm gears, which cannot be back-driven. A position servo limited to the drive's effort can:
+closing on a poptart box across the hand, F1 and F2 (6 N m together) pushed it against F3 (3
+N m) and turned F3 from 0.87 rad back to fully open (Table 1 high_09)."""
+WORM_GEAR_SLACK = 0.01  # rad a finger may be turned back before its gear holds it
 WRIST_TO_TCP = (
     (0.0, 0.0, hm.HAND_MOUNT_XYZ[2] + hm.HAND_TCP_OFFSET),
     (0.0, 0.0, math.sin(hm.HAND_MOUNT_YAW / 2.0), math.cos(hm.HAND_MOUNT_YAW / 2.0)),
@@ -85,6 +91,10 @@ class Herb:
             c.changeDynamics(self.body_id, link, lateralFriction=FINGER_FRICTION)
         c.changeDynamics(self.body_id, self.palm_link, lateralFriction=FINGER_FRICTION)
         self._closure = 0.0  # the last closure commanded
+        # The most-closed angle of each finger joint (proximal, distal) since the hand last
+        # opened: where its worm gear holds it (`hold_fingers`).
+        self._gear = np.zeros(6)
+        self._finger_targets = np.zeros(6)
 
     # --- state ------------------------------------------------------------------------------
     def reset(self, arm_q: np.ndarray, hand: HandCommand = OPEN_HAND) -> None:
@@ -95,6 +105,7 @@ class Herb:
         for j, q in zip(self.hand, hand_targets(hand), strict=True):
             c.resetJointState(self.body_id, j, float(q))
         self._closure = hand.closure
+        self._gear = hand_targets(hand)[2:]
         self.command(np.asarray(arm_q, dtype=np.float64), hand)
 
     def arm_state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -132,11 +143,34 @@ class Herb:
             # stalled on an object does not first keep squeezing toward its old target.
             fingers = [s[0] for s in c.getJointStates(self.body_id, self.hand[2:])]
             targets[2:] = np.minimum(targets[2:], fingers)
+            self._gear = np.minimum(self._gear, targets[2:])
         self._closure = hand.closure
+        self._finger_targets = targets[2:].copy()
         c.setJointMotorControlArray(
             self.body_id,
             self.hand,
             pybullet.POSITION_CONTROL,
             targetPositions=targets.tolist(),
             forces=self._hand_forces.tolist(),
+        )
+
+    def hold_fingers(self) -> None:
+        """Before each physics step: a finger joint turned back open by more than
+        `WORM_GEAR_SLACK` from the most-closed angle it reached is held there with
+        `WORM_GEAR_EFFORT` (the worm gear), any other is driven to its target with the drive's
+        effort. Opening (`command` with a smaller closure) releases the gears."""
+        c = self.sim.client
+        joints = self.hand[2:]
+        angles = np.array([s[0] for s in c.getJointStates(self.body_id, joints)])
+        reached = np.minimum(angles, self._finger_targets)
+        self._gear = np.maximum(self._gear, reached)
+        back = angles < self._gear - WORM_GEAR_SLACK
+        targets = np.where(back, self._gear, self._finger_targets)
+        forces = np.where(back, WORM_GEAR_EFFORT, self._hand_forces[2:])
+        c.setJointMotorControlArray(
+            self.body_id,
+            joints,
+            pybullet.POSITION_CONTROL,
+            targetPositions=targets.tolist(),
+            forces=forces.tolist(),
         )
