@@ -95,6 +95,7 @@ class Herb:
         # opened: where its worm gear holds it (`hold_fingers`).
         self._gear = np.zeros(6)
         self._finger_targets = np.zeros(6)
+        self._holding = False  # a gear holds some finger joint (`hold_fingers`)
 
     # --- state ------------------------------------------------------------------------------
     def reset(self, arm_q: np.ndarray, hand: HandCommand = OPEN_HAND) -> None:
@@ -159,12 +160,17 @@ class Herb:
         `WORM_GEAR_SLACK` from the most-closed angle it reached is held there with
         `WORM_GEAR_EFFORT` (the worm gear), any other is driven to its target with the drive's
         effort. Opening (`command` with a smaller closure) releases the gears."""
+        if self._closure <= 0.0 and not self._holding:
+            return  # an open hand: nothing to hold (its fingers sit at their open limits)
         c = self.sim.client
         joints = self.hand[2:]
         angles = np.array([s[0] for s in c.getJointStates(self.body_id, joints)])
         reached = np.minimum(angles, self._finger_targets)
         self._gear = np.maximum(self._gear, reached)
         back = angles < self._gear - WORM_GEAR_SLACK
+        if not back.any() and not self._holding:
+            return  # every finger is driven by `command`'s targets already
+        self._holding = bool(back.any())
         targets = np.where(back, self._gear, self._finger_targets)
         forces = np.where(back, WORM_GEAR_EFFORT, self._hand_forces[2:])
         c.setJointMotorControlArray(
