@@ -379,7 +379,9 @@ def grasp_episode(
 def test_grasp_objective_succeeds_when_two_fingers_grip_the_goal_around_its_axis() -> None:
     rewards, info, obs = grasp_episode(lambda env, obs: ScriptedSideGrasp(env, obs, "soda_can"))
     assert info["is_success"] and rewards[-1] == 1.0 and sum(rewards) == 1.0
-    assert info["goal_gripped"] and not info["goal_held"]  # the can still stands on the table
+    # The can still stands: the fingers, which hold where they stall (worm gears), may squeeze
+    # it off the table's contact (held) but lift it no more than a millimetre.
+    assert info["goal_gripped"] and info["goal_lift"] < 0.001
     assert obs["achieved_goal"][3] == obs["desired_goal"][3] == 1.0
     assert np.linalg.norm(obs["achieved_goal"][:3] - obs["desired_goal"][:3]) <= GRASP_TOLERANCE
 
