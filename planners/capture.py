@@ -430,9 +430,9 @@ def precompute(directory: Path) -> list[Path]:
     for spec in tqdm(OBJECTS.values(), desc="capture regions", unit="object"):
         if spec.graspable:
             apertures = {*push_grasp_apertures(spec.footprint), default_aperture(spec.footprint)}
+            grid = push_grasp_settings(spec.footprint)
             for aperture in sorted(apertures):
                 push_grasp_region(spec.footprint, aperture, cache_dir=directory)
-                grid = push_grasp_settings(spec.footprint)
                 wanted.add(cache_name("push_grasp", spec.footprint, aperture, grid))
         sweep_region(spec.footprint, cache_dir=directory)
         wanted.add(cache_name("sweep", spec.footprint, STRAIGHT_APERTURE, settings))

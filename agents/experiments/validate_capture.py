@@ -644,7 +644,7 @@ def push_distances(region: CaptureRegion, poses: np.ndarray) -> np.ndarray:
     planner pushes (the region's distance plus its `push_margin`), rounded down to
     `DISTANCE_STEP` (a set-up per distance; never further than the planner); `DISTANCE`
     elsewhere."""
-    predicted = region.contains(poses, DISTANCE - region.push_margin)  # as `predictions` says
+    predicted = predictions(region, poses)[0]
     planned = np.where(predicted, region.query(poses)[1] + region.push_margin, DISTANCE)
     steps = np.floor(planned / DISTANCE_STEP + 1e-9)
     return np.where(predicted, np.round(steps * DISTANCE_STEP, 6), DISTANCE)
