@@ -16,12 +16,12 @@ from clutter_gym.model.world import TABLE
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
-from planners.actions.hand_in import OUT_OF_REACH
+from planners.actions.hand_in import OUT_OF_REACH, TURN_REST, closing_poses
 from planners.actions.push_grasp import aperture_order, lateral_offsets
 from planners.actions.results import Failure
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures
-from planners.hand2d import default_aperture
+from planners.hand2d import PALM_FRONT, default_aperture
 from planners.uncertainty import ObjectBelief, sample_poses
 
 # The module, not the `sweep` action the package re-exports under the same name.
@@ -476,3 +476,25 @@ def test_all_offsets_planned_at_once_are_each_offsets_own_plan(kind: str) -> Non
                     assert plan.distance == distance
                     assert np.array_equal(plan.end, start + distance * v)
     assert planned > 20
+
+
+def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:
+    """`closing_poses`: a cylinder stays; a box near the palm, turned less than `TURN_BAND`
+    from the approach axis, sweeps only the orientations between its own and its rest; a box
+    across the hand, or far ahead of the palm, may stand at any orientation."""
+    can = get_object("soda_can").footprint
+    assert closing_poses(can, np.array([[0.2, 0.01, 1.0]])).shape == (1, 1, 3)
+    box = get_object("poptart_box").footprint
+    hx, hy = box.half_extents
+
+    def stages(degrees: float, ahead: float, aside: float = 0.0) -> np.ndarray:
+        theta = math.radians(degrees)
+        x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta)) + ahead
+        return np.degrees(closing_poses(box, np.array([[x, aside, theta]]))[:, 0, 2])
+
+    turned = stages(30.0, 0.0)
+    assert turned.min() == pytest.approx(math.degrees(TURN_REST[0]))
+    assert turned.max() == pytest.approx(30.0)
+    assert stages(-40.0, 0.0).max() == pytest.approx(math.degrees(TURN_REST[1]))
+    for anywhere in (stages(80.0, 0.0), stages(30.0, 0.06), stages(30.0, 0.0, 0.05)):
+        assert np.ptp(anywhere) == pytest.approx(180.0 * (1 - 1 / len(anywhere)))

@@ -18,11 +18,18 @@ from clutter_gym.env import ClutterRetrieveEnv
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.reachability import tcp_pose
-from clutter_gym.model.transforms import tilt_of_quaternion
+from clutter_gym.model.transforms import tilt_of_quaternion, yaw_of_quaternion
 from clutter_gym.model.world import TABLE
+from planners.actions.hand_in import closing_poses
 from planners.actions.pick_and_place import PLACE_ABOVE
 from planners.capture import push_grasp_region, sweep_region
-from planners.hand2d import GRASP_DEPTH, STRAIGHT_APERTURE, default_aperture, push_grasp_profile
+from planners.hand2d import (
+    GRASP_DEPTH,
+    PALM_FRONT,
+    STRAIGHT_APERTURE,
+    default_aperture,
+    push_grasp_profile,
+)
 from tests.helpers import WHITE, assert_picture
 
 
@@ -337,3 +344,37 @@ def test_a_box_set_down_and_let_go_stays_standing(angle: float) -> None:
     _, quaternion = env.sim.base_pose("object")
     env.close()
     assert tilt_of_quaternion(quaternion) < vc.UPRIGHT_TILT
+
+
+@pytest.mark.parametrize(
+    ("aperture", "degrees", "ahead", "y"),
+    [
+        (STRAIGHT_APERTURE, 40.0, 0.0, 0.0),
+        (0.151, -30.0, 0.02, 0.02),
+        pytest.param(0.235, 50.0, 0.04, -0.02, marks=pytest.mark.slow),
+        pytest.param(0.111, -20.0, 0.04, 0.0, marks=pytest.mark.slow),
+    ],
+)
+def test_a_box_turns_toward_the_approach_axis_as_the_planner_expects(
+    aperture: float, degrees: float, ahead: float, y: float
+) -> None:
+    """Fingers closing on a poptart box near the palm and turned from the approach axis turn
+    it toward the axis and hold it: the planner's closing stages (`closing_poses`) span its
+    turn, and not the half turn they give a box across the hand."""
+    spec = get_object("poptart_box")
+    hx, hy = spec.footprint.half_extents
+    theta = math.radians(degrees)
+    x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta)) + 0.003 + ahead
+    stages = closing_poses(spec.footprint, np.array([[x, y, theta]]))[:, 0, 2]
+    assert np.ptp(stages) < math.radians(90.0)  # the band, not the half turn
+    setup = vc.plan_push(spec, aperture, 0.0, 0.0)
+    env = ClutterRetrieveEnv()
+    assert vc.start_trial(env, setup, "poptart_box", (x, y, theta)) == ""
+    info = vc.step_actions(env, setup.actions)
+    _, quaternion = env.sim.base_pose("object")
+    env.close()
+    assert info["is_success"], info["failure"]
+    yaw = setup.frame.to_frame(np.array([[0.0, 0.0, yaw_of_quaternion(quaternion)]]))[0, 2]
+    turned = (yaw + math.pi / 2) % math.pi - math.pi / 2  # a box's faces repeat every half turn
+    assert stages.min() - 1e-9 <= turned <= stages.max() + 1e-9, math.degrees(turned)
+    assert abs(turned) < abs(theta)  # toward the axis

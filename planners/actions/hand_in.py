@@ -13,9 +13,10 @@ import numpy as np
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
+from clutter_gym.model.objects import Footprint
 from clutter_gym.model.reachability import PUSH_HEIGHT, hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
-from clutter_gym.model.transforms import rotation_2d
+from clutter_gym.model.transforms import Frame2D, rotation_2d
 from planners.actions.arm import Arm, Free
 from planners.actions.clearance import line_overlap
 from planners.actions.context import PlanningContext
@@ -28,12 +29,23 @@ from planners.actions.grasp_geometry import (
 )
 from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
-from planners.hand2d import PushGraspProfile, closure_for_aperture
+from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 OUT_OF_REACH = "the reachability map rules out the hand on its way in"
-CLOSING_TURNS = 6
-"""Orientations over a half turn at which a box may stand while the fingers close on it."""
+CLOSING_STAGES = 10
+"""Orientations at which `closing` puts a box while the fingers close on it."""
+TURN_BAND = math.radians(50.0)
+"""A box turned at most this far from the hand's approach axis (its faces repeat every half
+turn) is turned toward the axis by the closing fingers, never past `TURN_REST`."""
+TURN_SEAT = ((0.023, 0.04), (0.043, 0.02))
+"""(m ahead of the palm, m either side of the approach axis): where a box's nearest point and
+its centre must stand for `TURN_BAND` to hold, the envelope of the measured poses."""
+TURN_REST = (math.radians(-5.0), math.radians(10.0), math.radians(30.0))
+"""Where the box comes to rest relative to the approach axis, with a margin: from the first
+angle to the second when it stands at the palm, to the third at the far end of `TURN_SEAT`
+(the BH-280 closes two fingers against one, and the further ahead, the more they turn it past
+the axis)."""
 CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
 FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
@@ -129,7 +141,7 @@ def pick_up_or_release(
     if not goal.accepts(ctx, name, nu[-1], held):
         return Failure(name, action, f"the object does not end {goal.describe()}")
     if held:
-        turning = closing(ctx, name, nu[-1])
+        turning = closing(ctx, name, moved)
         if turned_into(ctx, name, turning, avoid):
             return Failure(name, action, TURNS_INTO_AVOID)
         if not fingers_close_free(ctx, arm, name, moved, avoid):
@@ -173,17 +185,46 @@ def fingers_close_free(
     return arm.hand_change_free(moved.q_end, moved.push.hand, meets, avoid)
 
 
-def closing(ctx: PlanningContext, name: str, final: np.ndarray) -> np.ndarray:
+def closing(ctx: PlanningContext, name: str, moved: HandIn) -> np.ndarray:
     """Where the object may stand while the fingers close on it, stages (S, M, 3) around its
-    poses (M, 3) where the hand stopped. A cylinder stays. A box turns about its centre until a
-    face lies against the fingers, either way and by up to a quarter turn (in simulation a
-    poptart box across the hand turned 80 deg and shoved a can 12 cm), so it may stand at any
-    orientation: `CLOSING_TURNS` of them over its half-turn symmetry."""
-    if ctx.beliefs[name].spec.footprint.shape != "box":
-        return np.asarray(final, dtype=float)[None]
-    turns = np.arange(CLOSING_TURNS) * (np.pi / CLOSING_TURNS)
-    turned = np.repeat(np.asarray(final, dtype=float)[None], CLOSING_TURNS, axis=0)
-    turned[..., 2] += turns[:, None]
+    poses (M, 3) where the hand stopped (``moved.nu[-1]``; `closing_poses`)."""
+    hand = Frame2D((float(moved.end_xy[0]), float(moved.end_xy[1])), moved.heading)
+    in_hand = hand.to_frame(moved.nu[-1])
+    return hand.to_world(closing_poses(ctx.beliefs[name].spec.footprint, in_hand))
+
+
+def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
+    """Where an object standing at ``in_hand`` (M, 3; hand_base's frame) may stand while the
+    fingers close on it, stages (S, M, 3). A cylinder stays. A box near the palm (`TURN_SEAT`)
+    and within `TURN_BAND` of the approach axis turns toward the axis, through every
+    orientation between its own and `TURN_REST`. Measured in pybullet (static grasps, the
+    box's nearest point 3, 23, 43, 63 and 83 mm ahead of the palm): at the five preshapes
+    0.111-0.275 m, turned 0-50 deg either way, 427 closes with the centre up to 2 cm either
+    side of the axis and 3-43 mm ahead, and 106 with it 4 cm aside and 3-23 mm ahead, all held
+    and each turned one way, to 0.8 deg below the axis and up to 8, 19 and 22 deg above it (3,
+    23, 43 mm); 43 mm ahead and 4 cm aside 4 of 74 failed, 63 and 83 mm ahead 33 of 93 and 99
+    of 99. Elsewhere it may turn either way, by up to a quarter turn
+    (across the hand a poptart box turned 80 deg and shoved a can 12 cm), so it may stand at
+    any orientation."""
+    in_hand = np.asarray(in_hand, dtype=float)
+    if footprint.shape != "box":
+        return in_hand[None]
+    off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2  # in [-pi/2, pi/2)
+    hx, hy = footprint.half_extents
+    nearest = in_hand[:, 0] - hx * np.abs(np.cos(off_axis)) - hy * np.abs(np.sin(off_axis))
+    ahead = np.maximum(nearest - PALM_FRONT, 0.0)
+    seated = np.zeros(len(in_hand), dtype=bool)
+    for most_ahead, most_aside in TURN_SEAT:
+        seated |= (ahead <= most_ahead) & (np.abs(in_hand[:, 1]) <= most_aside)
+    banded = (np.abs(off_axis) <= TURN_BAND) & seated
+    rest_low, seated_high, far_high = TURN_REST
+    rest_high = np.interp(ahead, (0.0, TURN_SEAT[-1][0]), (seated_high, far_high))
+    low = np.where(banded, np.minimum(off_axis, rest_low), off_axis)
+    anywhere = off_axis + np.pi * (1 - 1 / CLOSING_STAGES)  # the half turn, evenly
+    high = np.where(banded, np.maximum(off_axis, rest_high), anywhere)
+    fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
+    turned = np.repeat(in_hand[None], CLOSING_STAGES, axis=0)
+    turned[..., 2] = low + fractions * (high - low)
     return turned
 
 
