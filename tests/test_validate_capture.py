@@ -43,6 +43,21 @@ def test_grid_covers_at_least_the_requested_trials() -> None:
         vc.grid(can, 0)
 
 
+def test_a_box_sweep_grid_stands_boxes_across_the_span_at_the_regions_angles() -> None:
+    """250 trials of the large box's sweep: several rows inside the hand's span at every
+    orientation of the region's grid (at the grasps' 5 deg the grid had two rows, both beyond
+    the span, and no sweep touched the box)."""
+    box = get_object("large_box")
+    region = sweep_region(box.footprint)
+    poses = vc.sweep_grid(box, region, 250)
+    lo, hi = region.span
+    angles = np.unique(poses[:, 2])
+    assert len(angles) == region.s_contact.shape[1]
+    for angle in angles:
+        ys = np.unique(poses[poses[:, 2] == angle, 1])
+        assert np.count_nonzero((ys > lo) & (ys < hi)) >= 2
+
+
 def test_sweep_grid_crosses_the_hand_side_and_the_reach() -> None:
     can = get_object("soda_can")
     region = sweep_region(can.footprint)

@@ -105,10 +105,10 @@ GRID_Y = 0.20  # m either side of the hand axis (push-grasps)
 GRID_X = (0.05, 0.45)  # m ahead of hand_base (push-grasps)
 STATIC_MARGIN = 0.01  # m of static-grasp grid beyond the fingertip line
 BOX_ANGLES = BOX_PUSH_GRASP_SETTINGS.box_thetas
-"""Object orientations over [0, pi) for boxes (Fig. 9(d)): every 5 deg, the push-grasp
-regions' own theta grid (`planners.capture.BOX_PUSH_GRASP_SETTINGS`), so that poses between
-the 15 deg steps of the sweep regions' grid are stood too. At 30 deg the grid never stood the
-poptart box at 67-80 deg, where closing on it within 7 mm of the fingertip line toppled it."""
+"""Object orientations over [0, pi) at which grasps stand boxes (Fig. 9(d)): every 5 deg, the
+push-grasp regions' own theta grid (`planners.capture.BOX_PUSH_GRASP_SETTINGS`). At 30 deg the
+grid never stood the poptart box at 67-80 deg, where closing on it within 7 mm of the fingertip
+line toppled it. Sweeps stand boxes at their region's own theta grid (`sweep_grid`)."""
 SIDES = {1: "right", -1: "left"}  # a sweep's handedness: the side of the hand that pushes
 SWEEP_MARGIN = 0.03  # m of sweep grid beyond the hand's span and beyond the region's reach
 CONTACT_TOLERANCE = 0.005  # m between a swept object and the hand where the sweep ends
@@ -149,13 +149,14 @@ def grid(
     trials: int,
     xs: tuple[float, float] = GRID_X,
     ys: tuple[float, float] = (-GRID_Y, GRID_Y),
+    box_angles: int = BOX_ANGLES,
 ) -> np.ndarray:
     """At least `trials` poses (N, 3) over x range ``xs`` and y range ``ys`` of the region's
-    frame, on a regular grid (boxes at `BOX_ANGLES` orientations)."""
+    frame, on a regular grid (boxes at ``box_angles`` orientations over [0, pi))."""
     if trials < 1:
         raise ValueError(f"--trials: {trials}; must be >= 1")
     angles = (
-        np.linspace(0.0, np.pi, BOX_ANGLES, endpoint=False)
+        np.linspace(0.0, np.pi, box_angles, endpoint=False)
         if spec.footprint.shape == "box"
         else np.zeros(1)
     )
@@ -181,13 +182,15 @@ def sweep_grid(spec: ObjectSpec, region: SweepRegion, trials: int) -> np.ndarray
     """Sweep-frame poses from just clear of the hand's side where it is flattest (the palm and
     the plate flush with it; poses overlapping the fingers are skipped) to `SWEEP_MARGIN` beyond
     the farthest a sweep of `DISTANCE` reaches (past the fingers), across the hand's span and
-    `SWEEP_MARGIN` beyond."""
+    `SWEEP_MARGIN` beyond. Boxes stand at the region's own orientations: the push-grasps' 5 deg
+    leave a 250-trial grid two rows across, both beyond the span (no sweep touched a box)."""
     front = sweep_profile(region.aperture).pusher.bounds[1]
     footprint = spec.footprint
     near = hm.HAND_PALM_RADIUS + footprint.min_width / 2
     far = front + DISTANCE + footprint.bounding_radius
     lo, hi = region.span
-    return grid(spec, trials, (near, far + SWEEP_MARGIN), (lo - SWEEP_MARGIN, hi + SWEEP_MARGIN))
+    xs, ys = (near, far + SWEEP_MARGIN), (lo - SWEEP_MARGIN, hi + SWEEP_MARGIN)
+    return grid(spec, trials, xs, ys, region.s_contact.shape[1])
 
 
 @dataclass(frozen=True)
