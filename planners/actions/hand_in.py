@@ -25,6 +25,7 @@ from planners.actions.grasp_geometry import (
     GRASP_CLOSURE,
     LIFT,
     OPEN_FLAT,
+    outline_reach,
     rise_height,
 )
 from planners.actions.results import ActionResult, Failure
@@ -203,19 +204,17 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     side of the axis and 3-43 mm ahead, and 106 with it 4 cm aside and 3-23 mm ahead, all held
     and each turned one way, to 0.8 deg below the axis and up to 8, 19 and 22 deg above it (3,
     23, 43 mm); 43 mm ahead and 4 cm aside 4 of 74 failed, 63 and 83 mm ahead 33 of 93 and 99
-    of 99. Elsewhere it may turn either way, by up to a quarter turn
-    (across the hand a poptart box turned 80 deg and shoved a can 12 cm), so it may stand at
-    any orientation."""
+    of 99. Elsewhere it may turn either way, by up to a quarter turn (across the hand a poptart
+    box turned 80 deg and shoved a can 12 cm), so it may stand at any orientation."""
     in_hand = np.asarray(in_hand, dtype=float)
     if footprint.shape != "box":
         return in_hand[None]
     off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2  # in [-pi/2, pi/2)
-    hx, hy = footprint.half_extents
-    nearest = in_hand[:, 0] - hx * np.abs(np.cos(off_axis)) - hy * np.abs(np.sin(off_axis))
-    ahead = np.maximum(nearest - PALM_FRONT, 0.0)
+    ahead = np.maximum(in_hand[:, 0] - outline_reach(footprint, off_axis) - PALM_FRONT, 0.0)
     seated = np.zeros(len(in_hand), dtype=bool)
     for most_ahead, most_aside in TURN_SEAT:
-        seated |= (ahead <= most_ahead) & (np.abs(in_hand[:, 1]) <= most_aside)
+        # 1e-9: the measured poses lie on the envelope's edge, give or take rounding.
+        seated |= (ahead <= most_ahead + 1e-9) & (np.abs(in_hand[:, 1]) <= most_aside + 1e-9)
     banded = (np.abs(off_axis) <= TURN_BAND) & seated
     rest_low, seated_high, far_high = TURN_REST
     rest_high = np.interp(ahead, (0.0, TURN_SEAT[-1][0]), (seated_high, far_high))

@@ -49,8 +49,8 @@ def place(
     details: dict[str, float],
 ) -> ActionResult | Failure:
     """Carry the grasped obstacle to a placement in G; nu_o is the push, the object turning
-    while the fingers close (`closing`) and where it is
-    put down, every stage with one pose per sample, parameter set and turn."""
+    while the fingers close (`closing`) and where it is put down, every stage with one pose per
+    sample, parameter set and turn."""
     turning = closing(ctx, name, moved)
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
