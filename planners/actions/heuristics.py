@@ -50,18 +50,24 @@ def headings(ctx: PlanningContext, base: float, step_deg: float) -> list[float]:
 
 
 def push_headings(
-    ctx: PlanningContext, shoulder: np.ndarray, name: str, reach: float, avoid: Volume
+    ctx: PlanningContext,
+    shoulder: np.ndarray,
+    name: str,
+    reach: float,
+    avoid: Volume,
+    step_deg: float | None = None,
 ) -> list[float]:
     """Push directions ordered by §2.2.6: fewest objects hit by the hand on its way in and by
     the object and fingers on their way on, then closest to the shoulder-object line. Hitting
-    an object of avoidVol (which no candidate may penetrate) counts before any other hit."""
+    an object of avoidVol (which no candidate may penetrate) counts before any other hit.
+    ``step_deg`` (default `PlannerSettings.heading_step_deg`) spaces them."""
     belief = ctx.beliefs[name]
     centre = belief.samples[0, :2]
     base = base_heading(shoulder, centre)
     footprint = belief.spec.footprint
     radius = footprint.bounding_radius
     fixed = avoid.labels
-    candidates = headings(ctx, base, ctx.settings.heading_step_deg)
+    candidates = headings(ctx, base, step_deg or ctx.settings.heading_step_deg)
     if footprint.shape == "box":
         # Square to the detected box's faces too: a narrow hand fits a box only along them.
         limit = math.radians(ctx.settings.max_heading_deg) + 1e-9

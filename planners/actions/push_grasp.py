@@ -33,6 +33,8 @@ from planners.actions.static_grasp import static_grasp
 from planners.capture import extreme_parameters, push_grasp_apertures
 from planners.hand2d import default_aperture, push_grasp_profile
 
+HEADING_REFINE = 3
+"""The push-grasp's headings are searched again at this fraction of the settings' step."""
 OFFSET_STEP = 0.01  # m between the lateral offsets tried (the paper's "user defined step")
 NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
 MISSES_SAMPLES = "the capture region misses some uncertainty samples"
@@ -56,7 +58,7 @@ def push_grasp(
         budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
     apertures = aperture_order(spec.footprint)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
-    for heading in push_headings(ctx, arm.heading_origin, name, reach, avoid):
+    for heading in _headings(ctx, arm, name, reach, avoid):
         if budget <= 0:
             return
         for aperture in apertures:
@@ -68,6 +70,21 @@ def push_grasp(
             budget -= found
             if found:
                 break  # the next candidate pushes from another direction
+
+
+def _headings(
+    ctx: PlanningContext, arm: Arm, name: str, reach: float, avoid: Volume
+) -> Iterator[float]:
+    """`push_headings` at the settings' step, then, only if the search goes on, the ones
+    between them at a `HEADING_REFINE`-th of the step: in clutter a hand turned by 5 degrees
+    may fit where the 15-degree grid has none (Table 1 high_03), and the coarse grid first
+    keeps the cost of the scenes it solves."""
+    coarse = push_headings(ctx, arm.heading_origin, name, reach, avoid)
+    yield from coarse
+    step = ctx.settings.heading_step_deg / HEADING_REFINE
+    for heading in push_headings(ctx, arm.heading_origin, name, reach, avoid, step):
+        if all(abs(math.remainder(heading - h, 2 * math.pi)) > 1e-6 for h in coarse):
+            yield heading
 
 
 def aperture_order(footprint: Footprint) -> list[float]:
