@@ -498,3 +498,20 @@ def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:
     assert stages(-40.0, 0.0).max() == pytest.approx(math.degrees(TURN_REST[1]))
     for anywhere in (stages(80.0, 0.0), stages(30.0, 0.06), stages(30.0, 0.0, 0.05)):
         assert np.ptp(anywhere) == pytest.approx(180.0 * (1 - 1 / len(anywhere)))
+
+
+def test_push_headings_run_over_the_grid_first_then_between_its_steps() -> None:
+    """The push-grasp tries the 15-degree grid's headings first (the plans it finds there stay
+    what they were), then the ones between them, each direction once."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _box_context()
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    reach = 0.15
+    coarse = push_grasp.push_headings(ctx, arm.heading_origin, "box", reach, Volume())
+    tried = list(push_grasp._headings(ctx, arm, "box", reach, Volume()))
+    assert tried[: len(coarse)] == coarse
+    directions = np.round(np.degrees(np.array(tried)) % 360.0, 6)
+    assert len(np.unique(directions)) == len(tried)  # no direction twice
+    step = ctx.settings.heading_step_deg
+    fine = step / push_grasp.HEADING_REFINE
+    assert len(tried) - len(coarse) == round(360.0 / fine) - round(360.0 / step)
