@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import math
 from collections import Counter
@@ -18,7 +19,7 @@ from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
 from planners.actions.hand_in import OUT_OF_REACH, TURN_REST, closing_poses
 from planners.actions.push_grasp import aperture_order, lateral_offsets
-from planners.actions.results import Failure
+from planners.actions.results import ActionResult, Failure
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures
 from planners.hand2d import PALM_FRONT, default_aperture
@@ -515,3 +516,21 @@ def test_push_headings_run_over_the_grid_first_then_between_its_steps() -> None:
     step = ctx.settings.heading_step_deg
     fine = step / push_grasp.HEADING_REFINE
     assert len(tried) - len(coarse) == round(360.0 / fine) - round(360.0 / step)
+
+
+@pytest.mark.parametrize("liftable", [True, False])
+def test_an_obstacle_too_heavy_to_lift_is_never_carried(liftable: bool) -> None:
+    """Pick-and-place lifts the obstacle it carries out of the NGR; one the WAM cannot lift
+    (the 5 kg dumbbell) is pushed only. The same can, declared too heavy, is never carried."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _scene_context(("can", "soda_can", (0.70, -0.25, 0.0)))
+    belief = ctx.beliefs["can"]
+    spec = dataclasses.replace(belief.spec, liftable=liftable)
+    ctx.beliefs["can"] = dataclasses.replace(belief, spec=spec)
+    centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
+    goal = AwayFrom(Volume.of_box("ngr", centre, (0.1, 0.1, 0.2), 0.0))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    outcomes = list(push_grasp.push_grasp(ctx, arm, "can", goal, ctx.objects_volume([])))
+    carried = [o for o in outcomes if isinstance(o, ActionResult) and o.action == "pick-and-place"]
+    refused = [o for o in outcomes if isinstance(o, Failure) and o.reason == "too heavy to lift"]
+    assert bool(carried) == liftable and bool(refused) != liftable

@@ -28,7 +28,7 @@ from planners.actions.hand_in import (
     release,
     turned_into,
 )
-from planners.actions.results import ActionResult, Failure
+from planners.actions.results import ActionResult, Failure, unfit
 
 ACTION = "pick-and-place"
 CARRY_LIFT = 0.15  # m: the object is carried this far above where it stood
@@ -51,6 +51,9 @@ def place(
     """Carry the grasped obstacle to a placement in G; nu_o is the push, the object turning
     while the fingers close (`closing`) and where it is put down, every stage with one pose per
     sample, parameter set and turn."""
+    why = unfit(ctx.beliefs[name].spec, pushed=True, lifted=True)
+    if why:  # the carry lifts it: the 5 kg dumbbell is pushed only
+        return Failure(name, ACTION, why)
     turning = closing(ctx, name, moved)
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
