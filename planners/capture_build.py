@@ -138,16 +138,20 @@ def build_push_grasp(
     # Captured: the centre within the gap and behind the line at which closing fingers hold
     # an object that nothing touches (`grasp_depth` behind the fingertips), or behind the
     # fingertips while carried by the hand; settled against the hand from then on. In a V
-    # preshape a box must also have come to the palm (`palm_seat`).
+    # preshape a box is captured once it has come to the palm (`palm_seat`), wherever the
+    # fingertips stand: end-on its centre is then up to 3 cm ahead of them, and closing holds
+    # it (`planners.actions.hand_in.TURN_SEAT`).
     line = hand.grasp_line - grasp_depth(footprint, hand.aperture)
     seat = palm_seat(footprint, hand.aperture)
     hx, hy = footprint.half_extents
 
-    def seat_line(theta: np.ndarray) -> np.ndarray:
-        """The centre's x at which a box at ``theta`` is within the seat of the palm."""
+    def capture_lines(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The centre's x behind which an object at ``theta`` counts as captured: free (nothing
+        touching it) and carried by the hand."""
         if seat is None:
-            return np.full(theta.shape, np.inf)
-        return PALM_FRONT + seat + hx * np.abs(np.cos(theta)) + hy * np.abs(np.sin(theta))
+            return np.full(theta.shape, line), np.full(theta.shape, hand.grasp_line)
+        seated = PALM_FRONT + seat + hx * np.abs(np.cos(theta)) + hy * np.abs(np.sin(theta))
+        return seated, seated
 
     captured = np.zeros(total, dtype=bool)
     s_cap = np.zeros(total)
@@ -159,14 +163,14 @@ def build_push_grasp(
         first = state.touching & np.isinf(s_contact[ids])
         s_contact[ids[first]] = np.maximum(s[first] - settings.step, 0.0)
         x = state.poses[:, 0]
-        seated = seat_line(state.poses[:, 2])
-        carried = state.stationary & (x <= np.minimum(hand.grasp_line, seated))
-        crossed = x <= np.minimum(line, seated)
+        free_line, carried_line = capture_lines(state.poses[:, 2])
+        carried = state.stationary & (x <= carried_line)
+        crossed = x <= free_line
         now = (crossed | carried) & (np.abs(state.poses[:, 1]) <= hand.half_gap)
         new = now & ~captured[ids]
         # A free jump is a pure translation along -x: it crossed the line exactly
         # line - x ago. In contact, keep the step's end (at most one step late).
-        late = np.where(state.touching, 0.0, np.minimum(line, seated) - x)
+        late = np.where(state.touching, 0.0, free_line - x)
         s_cap[ids[new]] = (s - late)[new]
         captured[ids] = now
         settled = state.stationary

@@ -255,9 +255,11 @@ to 2 cm ahead of the palm; pushed on to the palm it held."""
 
 
 def palm_seat(footprint: Footprint, aperture: float) -> float | None:
-    """m a box must come to the palm before a V preshape counts it captured (`PALM_SEAT`), or
-    None where the fingertip line alone decides: cylinders, and every preshape up to the
-    straight one, whose fingers close around a box's sides from behind its centre."""
+    """m a box must come to the palm for a V preshape to count it captured (`PALM_SEAT`),
+    wherever its centre stands against the fingertip line (the V's fingers close on a box seated
+    at the palm at any orientation, end-on too: `planners.actions.hand_in.TURN_SEAT`), or None
+    where the fingertip line alone decides: cylinders, and every preshape up to the straight
+    one, whose fingers close around a box's sides from behind its centre."""
     v_shaped = aperture > STRAIGHT_APERTURE + 1e-9
     return PALM_SEAT if footprint.shape == "box" and v_shaped else None
 
