@@ -47,6 +47,17 @@ TURN_REST = (math.radians(-5.0), math.radians(10.0), math.radians(30.0))
 angle to the second when it stands at the palm, to the third at the far end of `TURN_SEAT`
 (the BH-280 closes two fingers against one, and the further ahead, the more they turn it past
 the axis)."""
+CLOSING_SHOVE = (0.045, 0.095)
+"""m a box may be pushed away from the palm while the fingers close on it: within `TURN_BAND`
+and `TURN_SEAT`, and elsewhere. Measured in pybullet (out/s41v/shove.py: static closes of the
+poptart box 3 and 23 mm ahead of the palm, every 10 deg, on the axis and 2 cm either side, at
+0.192, 0.235 and 0.275 m, then the lift): 0.3-4.4 cm within 50 deg of the axis, up to 9.1 cm at
+70 deg. Table 1 medium_05 sigma3: a box seated 55 deg off the axis, shoved 7.7 cm over the
+table's near edge before it was held."""
+CLOSING_CENTRE = -0.027
+"""m: where a closing hand centres a box across the approach axis (the BH-280 closes two
+fingers against one): the same closes ended 4.4 cm right to 1.4 cm left of the axis, most
+within a few millimetres of this, wherever the box stood within 2 cm of the axis."""
 CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
 FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
@@ -145,6 +156,8 @@ def pick_up_or_release(
         turning = closing(ctx, name, moved)
         if turned_into(ctx, name, turning, avoid):
             return Failure(name, action, TURNS_INTO_AVOID)
+        if not ctx.stays_stable(name, turning):
+            return Failure(name, action, CLOSES_OFF_SURFACE)
         if not fingers_close_free(ctx, arm, name, moved, avoid):
             return Failure(name, action, FINGERS_INTO_AVOID)
         finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
@@ -171,6 +184,7 @@ def pick_up_or_release(
 
 
 TURNS_INTO_AVOID = "the object turning in the closing hand sweeps into avoidVol"
+CLOSES_OFF_SURFACE = "the closing hand may push the object off the surface"
 FINGERS_INTO_AVOID = "the closing fingers sweep into avoidVol"
 
 
@@ -205,7 +219,9 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     and each turned one way, to 0.8 deg below the axis and up to 8, 19 and 22 deg above it (3,
     23, 43 mm); 43 mm ahead and 4 cm aside 4 of 74 failed, 63 and 83 mm ahead 33 of 93 and 99
     of 99. Elsewhere it may turn either way, by up to a quarter turn (across the hand a poptart
-    box turned 80 deg and shoved a can 12 cm), so it may stand at any orientation."""
+    box turned 80 deg and shoved a can 12 cm), so it may stand at any orientation. While it
+    turns, the fingers push it away from the palm (`CLOSING_SHOVE`) and towards
+    `CLOSING_CENTRE`."""
     in_hand = np.asarray(in_hand, dtype=float)
     if footprint.shape != "box":
         return in_hand[None]
@@ -223,6 +239,8 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     high = np.where(banded, np.maximum(off_axis, rest_high), anywhere)
     fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     turned = np.repeat(in_hand[None], CLOSING_STAGES, axis=0)
+    turned[..., 0] += fractions * np.where(banded, *CLOSING_SHOVE)
+    turned[..., 1] += fractions * (CLOSING_CENTRE - in_hand[:, 1])
     turned[..., 2] = low + fractions * (high - low)
     return turned
 

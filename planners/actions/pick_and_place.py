@@ -20,6 +20,7 @@ from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal
 from planners.actions.grasp_geometry import GRASP_CLOSURE, translated
 from planners.actions.hand_in import (
+    CLOSES_OFF_SURFACE,
     FINGERS_INTO_AVOID,
     TURNS_INTO_AVOID,
     HandIn,
@@ -57,6 +58,8 @@ def place(
     turning = closing(ctx, name, moved)
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
+    if not ctx.stays_stable(name, turning):
+        return Failure(name, ACTION, CLOSES_OFF_SURFACE)
     if not fingers_close_free(ctx, arm, name, moved, avoid):
         return Failure(name, ACTION, FINGERS_INTO_AVOID)
     in_hand = turning.reshape(-1, 3)  # every pose the held object may have
