@@ -394,18 +394,22 @@ APERTURE_GAP = 0.06
 """m: the widest step between searched apertures; a wider one is split evenly."""
 
 
-def push_grasp_apertures(footprint: Footprint) -> tuple[float, ...]:
+def push_grasp_apertures(footprint: Footprint, liftable: bool = True) -> tuple[float, ...]:
     """The apertures the planner searches (§2.2.6: "between the maximum hand aperture and the
     minimum hand aperture for the object"), narrowest first: the object's narrowest width plus
     a fingertip, one that fits it at any orientation (`default_aperture`), the fingertips
     straight ahead, and the V preshapes, with no step wider than `APERTURE_GAP`. Narrow hands
-    fit between neighbours in clutter; wide ones capture the spread of large uncertainty."""
+    fit between neighbours in clutter; wide ones capture the spread of large uncertainty.
+
+    An object the arm cannot lift gets no V preshape: a V captures a box once it is seated at
+    the palm because closing holds it there, which `validate-capture` checks by lifting it, so
+    for such an object the claim would ship untested."""
     wanted = sorted(
         {
             footprint.min_width + APERTURE_MARGIN,
             default_aperture(footprint),
             STRAIGHT_APERTURE,
-            *V_APERTURES,
+            *(V_APERTURES if liftable else ()),
         }
     )
     kept: list[float] = []
@@ -429,7 +433,10 @@ def precompute(directory: Path) -> list[Path]:
     wanted = set()
     for spec in tqdm(OBJECTS.values(), desc="capture regions", unit="object"):
         if spec.graspable:
-            apertures = {*push_grasp_apertures(spec.footprint), default_aperture(spec.footprint)}
+            apertures = {
+                *push_grasp_apertures(spec.footprint, spec.liftable),
+                default_aperture(spec.footprint),
+            }
             grid = push_grasp_settings(spec.footprint)
             for aperture in sorted(apertures):
                 push_grasp_region(spec.footprint, aperture, cache_dir=directory)

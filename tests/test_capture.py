@@ -212,6 +212,16 @@ def test_bad_queries(can_region: CaptureRegion) -> None:
         CaptureSettings(box_mus=(0.0,))
 
 
+def test_an_object_the_arm_cannot_lift_gets_no_v_preshape() -> None:
+    """A V preshape's capture rests on the closing holding the box (checked by lifting it), so
+    the 5 kg dumbbell is push-grasped with the straight preshapes only."""
+    dumbbell = OBJECTS["dumbbell"]
+    assert not dumbbell.liftable
+    apertures = push_grasp_apertures(dumbbell.footprint, liftable=False)
+    assert max(apertures) == STRAIGHT_APERTURE
+    assert set(apertures) < set(push_grasp_apertures(dumbbell.footprint))
+
+
 def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path) -> None:
     """Every region the planner, the primitive env and validate-capture use by default ships
     with the package under its current key (a change to the simulation or settings would miss
@@ -220,7 +230,10 @@ def test_shipped_regions_cover_the_action_library_and_are_current(tmp_path: Path
         footprint = spec.footprint
         wanted = [("sweep", STRAIGHT_APERTURE, CaptureSettings())]
         if spec.graspable:
-            searched = {*push_grasp_apertures(footprint), default_aperture(footprint)}
+            searched = {
+                *push_grasp_apertures(footprint, spec.liftable),
+                default_aperture(footprint),
+            }
             grid = push_grasp_settings(footprint)
             wanted += [("push_grasp", a, grid) for a in sorted(searched)]
         for kind, aperture, settings in wanted:

@@ -234,7 +234,8 @@ def run_validate_capture(args: argparse.Namespace) -> int:
         from clutter_gym.model.objects import get_object
         from planners.capture import push_grasp_apertures
 
-        apertures = list(push_grasp_apertures(get_object(kind).footprint))
+        spec = get_object(kind)
+        apertures = list(push_grasp_apertures(spec.footprint, spec.liftable))
 
     from agents.experiments.validate_capture import summary_lines, validate, write_markdown
 

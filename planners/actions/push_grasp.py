@@ -56,7 +56,7 @@ def push_grasp(
     budget = ctx.settings.candidates_per_action
     if action == "pickup":
         budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
-    apertures = aperture_order(spec.footprint)
+    apertures = aperture_order(spec.footprint, spec.liftable)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
     for heading in _headings(ctx, arm, name, reach, avoid):
         if budget <= 0:
@@ -87,12 +87,13 @@ def _headings(
             yield heading
 
 
-def aperture_order(footprint: Footprint) -> list[float]:
+def aperture_order(footprint: Footprint, liftable: bool = True) -> list[float]:
     """The push-grasp apertures in the order they are tried (§2.2.6 searches them all): the
     one that fits the object at any orientation first (the validated everyday preshape), then
     wider ones up to the V preshapes (wide uncertainty), then narrower ones (clutter)."""
     usual = default_aperture(footprint)
-    return sorted(push_grasp_apertures(footprint), key=lambda a: (a < usual - 1e-3, abs(a - usual)))
+    apertures = push_grasp_apertures(footprint, liftable)
+    return sorted(apertures, key=lambda a: (a < usual - 1e-3, abs(a - usual)))
 
 
 def lateral_offsets(
