@@ -17,7 +17,14 @@ from clutter_gym.model.world import TABLE
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
-from planners.actions.hand_in import OUT_OF_REACH, TURN_REST, closing_poses
+from planners.actions.hand_in import (
+    CLOSING_CENTRE,
+    CLOSING_SHOVE,
+    CLOSING_SHOVE_ELSEWHERE,
+    OUT_OF_REACH,
+    TURN_REST,
+    closing_poses,
+)
 from planners.actions.push_grasp import aperture_order, lateral_offsets
 from planners.actions.results import ActionResult, Failure
 from planners.actions.settings import PlannerSettings
@@ -499,6 +506,31 @@ def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:
     assert stages(-40.0, 0.0).max() == pytest.approx(math.degrees(TURN_REST[1]))
     for anywhere in (stages(80.0, 0.0), stages(30.0, 0.06), stages(30.0, 0.0, 0.05)):
         assert np.ptp(anywhere) == pytest.approx(180.0 * (1 - 1 / len(anywhere)))
+
+
+def test_a_closing_hand_shoves_a_box_off_the_palm_the_more_the_further_from_the_axis() -> None:
+    """`closing_poses`: while the fingers close, a box moves away from the palm by the measured
+    envelope (more the further it is turned from the approach axis, most across the hand) and
+    ends at `CLOSING_CENTRE` across it; a cylinder is not moved."""
+    box = get_object("poptart_box").footprint
+    hx, hy = box.half_extents
+
+    def moved(degrees: float, aside: float) -> np.ndarray:
+        theta = math.radians(degrees)
+        x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta))
+        stages = closing_poses(box, np.array([[x, aside, theta]]))[:, 0, :2]
+        assert np.all(np.diff(stages[:, 0]) >= 0.0)  # away from the palm, never back
+        return stages[-1] - (x, aside)
+
+    shoves = [moved(degrees, 0.0)[0] for degrees in (0.0, 30.0, 50.0, 70.0, 90.0)]
+    assert 0.0 < shoves[0] < shoves[1] < shoves[2] < shoves[3] == shoves[4]
+    assert shoves[2] == pytest.approx(CLOSING_SHOVE[1][-1]) and shoves[3] == CLOSING_SHOVE_ELSEWHERE
+    for aside in (-0.02, 0.0, 0.02):
+        assert aside + moved(20.0, aside)[1] == pytest.approx(CLOSING_CENTRE)
+    can = get_object("soda_can").footprint
+    assert np.array_equal(
+        closing_poses(can, np.array([[0.2, 0.01, 1.0]]))[:, 0], [[0.2, 0.01, 1.0]]
+    )
 
 
 def test_push_headings_run_over_the_grid_first_then_between_its_steps() -> None:

@@ -392,22 +392,26 @@ def test_a_box_turns_toward_the_approach_axis_as_the_planner_expects(
     aperture: float, degrees: float, ahead: float, y: float
 ) -> None:
     """Fingers closing on a poptart box near the palm and turned from the approach axis turn
-    it toward the axis and hold it: the planner's closing stages (`closing_poses`) span its
-    turn, and not the half turn they give a box across the hand."""
+    it toward the axis, push it no further from the palm than the planner's closing stages
+    (`closing_poses`) do, and hold it: the stages span its turn, and not the half turn they
+    give a box across the hand."""
     spec = get_object("poptart_box")
     hx, hy = spec.footprint.half_extents
     theta = math.radians(degrees)
     x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta)) + 0.003 + ahead
-    stages = closing_poses(spec.footprint, np.array([[x, y, theta]]))[:, 0, 2]
-    assert np.ptp(stages) < math.radians(90.0)  # the band, not the half turn
+    stages = closing_poses(spec.footprint, np.array([[x, y, theta]]))[:, 0]
+    assert np.ptp(stages[:, 2]) < math.radians(90.0)  # the band, not the half turn
     setup = vc.plan_push(spec, aperture, 0.0, 0.0)
     env = ClutterRetrieveEnv()
     assert vc.start_trial(env, setup, "poptart_box", (x, y, theta)) == ""
+    start, _ = env.sim.base_pose("object")
     info = vc.step_actions(env, setup.actions)
-    _, quaternion = env.sim.base_pose("object")
+    end, quaternion = env.sim.base_pose("object")
     env.close()
     assert info["is_success"], info["failure"]
+    before, after = setup.frame.to_frame(np.array([[*start[:2], 0.0], [*end[:2], 0.0]]))
+    assert after[0] - before[0] <= stages[-1, 0] - x  # shoved off the palm no further than modelled
     yaw = setup.frame.to_frame(np.array([[0.0, 0.0, yaw_of_quaternion(quaternion)]]))[0, 2]
     turned = (yaw + math.pi / 2) % math.pi - math.pi / 2  # a box's faces repeat every half turn
-    assert stages.min() - 1e-9 <= turned <= stages.max() + 1e-9, math.degrees(turned)
+    assert stages[:, 2].min() - 1e-9 <= turned <= stages[:, 2].max() + 1e-9, math.degrees(turned)
     assert abs(turned) < abs(theta)  # toward the axis

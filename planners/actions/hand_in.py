@@ -47,13 +47,20 @@ TURN_REST = (math.radians(-5.0), math.radians(10.0), math.radians(30.0))
 angle to the second when it stands at the palm, to the third at the far end of `TURN_SEAT`
 (the BH-280 closes two fingers against one, and the further ahead, the more they turn it past
 the axis)."""
-CLOSING_SHOVE = (0.045, 0.095)
-"""m a box may be pushed away from the palm while the fingers close on it: within `TURN_BAND`
-and `TURN_SEAT`, and elsewhere. Measured in pybullet (out/s41v/shove.py: static closes of the
-poptart box 3 and 23 mm ahead of the palm, every 10 deg, on the axis and 2 cm either side, at
-0.192, 0.235 and 0.275 m, then the lift): 0.3-4.4 cm within 50 deg of the axis, up to 9.1 cm at
-70 deg. Table 1 medium_05 sigma3: a box seated 55 deg off the axis, shoved 7.7 cm over the
-table's near edge before it was held."""
+CLOSING_SHOVE = (
+    np.radians([0.0, 10.0, 20.0, 30.0, 40.0, 50.0]),
+    np.array([0.020, 0.020, 0.024, 0.034, 0.042, 0.049]),
+)
+"""(off-axis angle rad, m): how far a box within `TURN_BAND` of the approach axis may be pushed
+away from the palm while the fingers close on it, the measured envelope plus 5 mm. Measured in
+pybullet (static closes of the poptart box 3, 23, 43 and 63 mm ahead of the palm, every 10 deg,
+on the axis and 2 cm either side, at 0.151-0.275 m, then the lift; 458 held): at most 1.5,
+1.4, 1.9, 2.9, 3.7 and 4.4 cm at 0-50 deg off the axis, and no more than 1 cm from 43 mm
+ahead."""
+CLOSING_SHOVE_ELSEWHERE = 0.096
+"""m: the same for a box further off the axis: up to 9.1 cm at 70 deg, plus 5 mm. Table 1
+medium_05 sigma3: a box pushed in 55 deg off the axis, shoved 7.7 cm over the table's near
+edge before it was held."""
 CLOSING_CENTRE = -0.027
 """m: where a closing hand centres a box across the approach axis (the BH-280 closes two
 fingers against one): the same closes ended 4.4 cm right to 1.4 cm left of the axis, most
@@ -220,8 +227,8 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     23, 43 mm); 43 mm ahead and 4 cm aside 4 of 74 failed, 63 and 83 mm ahead 33 of 93 and 99
     of 99. Elsewhere it may turn either way, by up to a quarter turn (across the hand a poptart
     box turned 80 deg and shoved a can 12 cm), so it may stand at any orientation. While it
-    turns, the fingers push it away from the palm (`CLOSING_SHOVE`) and towards
-    `CLOSING_CENTRE`."""
+    turns, the fingers push it away from the palm (`CLOSING_SHOVE`, `CLOSING_SHOVE_ELSEWHERE`)
+    and towards `CLOSING_CENTRE`."""
     in_hand = np.asarray(in_hand, dtype=float)
     if footprint.shape != "box":
         return in_hand[None]
@@ -239,7 +246,11 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     high = np.where(banded, np.maximum(off_axis, rest_high), anywhere)
     fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     turned = np.repeat(in_hand[None], CLOSING_STAGES, axis=0)
-    turned[..., 0] += fractions * np.where(banded, *CLOSING_SHOVE)
+    near_axis = np.abs(off_axis) <= TURN_BAND
+    shove = np.where(
+        near_axis, np.interp(np.abs(off_axis), *CLOSING_SHOVE), CLOSING_SHOVE_ELSEWHERE
+    )
+    turned[..., 0] += fractions * shove
     turned[..., 1] += fractions * (CLOSING_CENTRE - in_hand[:, 1])
     turned[..., 2] = low + fractions * (high - low)
     return turned
