@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import rotation_2d
@@ -47,10 +46,15 @@ class ConvexPolygon:
         v = np.asarray(self.vertices, float)
         if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
             raise ValueError(f"ConvexPolygon needs >= 3 vertices (k, 2), got shape {v.shape}")
-        e = np.roll(v, -1, axis=0) - v
-        cross = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
-        if np.any(cross <= 0):
-            raise ValueError("ConvexPolygon vertices must be strictly convex and counter-clockwise")
+        # Plain floats: a pusher of a few polygons is built for every new push length.
+        k = len(self.vertices)
+        for i in range(k):
+            (ax, ay), (bx, by) = self.vertices[i - 1], self.vertices[i]
+            cx, cy = self.vertices[(i + 1) % k]
+            if (bx - ax) * (cy - by) - (by - ay) * (cx - bx) <= 0.0:
+                raise ValueError(
+                    "ConvexPolygon vertices must be strictly convex and counter-clockwise"
+                )
 
 
 def swept(pusher: Pusher, length: float) -> Pusher:
@@ -60,16 +64,36 @@ def swept(pusher: Pusher, length: float) -> Pusher:
     shift = np.array([length, 0.0])
     polygons = []
     for p in pusher.polygons:
-        v = np.asarray(p.vertices, float)
-        both = np.vstack([v, v + shift])
-        hull = both[ConvexHull(both).vertices]  # counter-clockwise in 2D
-        polygons.append(ConvexPolygon(tuple((float(x), float(y)) for x, y in hull)))
+        polygons.append(
+            ConvexPolygon(_hull([*p.vertices, *((x + length, y) for x, y in p.vertices)]))
+        )
     circles = []
     for c in pusher.circles:
         start = np.asarray(c.center, float)
         polygons.append(rectangle(start, start + shift, c.radius))
         circles += [c, Circle((float(start[0] + length), float(start[1])), c.radius)]
     return Pusher(tuple(polygons), tuple(circles))
+
+
+def _hull(points: list[tuple[float, float]]) -> tuple[tuple[float, float], ...]:
+    """The convex hull of a few points, counter-clockwise, without collinear vertices
+    (Andrew's monotone chain: for the handful of vertices of a link and its translate it is
+    about ten times faster than qhull, and `swept` runs for every new push length)."""
+    ordered = sorted(set(points))
+
+    def chain(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        out: list[tuple[float, float]] = []
+        for x, y in seq:
+            while len(out) >= 2:
+                (ax, ay), (bx, by) = out[-2], out[-1]
+                if (bx - ax) * (y - ay) - (by - ay) * (x - ax) > 0.0:
+                    break
+                out.pop()
+            out.append((x, y))
+        return out
+
+    lower, upper = chain(ordered), chain(ordered[::-1])
+    return tuple(lower[:-1] + upper[:-1])
 
 
 def rectangle(p0: np.ndarray, p1: np.ndarray, half_width: float) -> ConvexPolygon:

@@ -206,6 +206,22 @@ def test_a_sample_riding_with_the_pusher_is_a_fixed_point(kind: str) -> None:
     assert np.all(fast.pushed == 0.3)
 
 
+@pytest.mark.parametrize(
+    "vertices",
+    [
+        ((0.0, 0.0), (0.0, 1.0), (1.0, 0.0)),  # clockwise
+        ((0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (1.0, 1.0)),  # a straight angle
+        ((0.0, 0.0), (2.0, 0.0), (0.5, 0.5), (0.0, 2.0)),  # a reflex vertex
+        ((0.0, 0.0), (1.0, 0.0)),
+    ],
+)
+def test_a_polygon_that_is_not_strictly_convex_and_counter_clockwise_is_refused(
+    vertices: tuple[tuple[float, float], ...],
+) -> None:
+    with pytest.raises(ValueError, match="ConvexPolygon"):
+        ConvexPolygon(vertices)
+
+
 @pytest.mark.parametrize("kind", ["soda_can", "poptart_box"])
 def test_the_swept_hand_is_the_union_of_its_poses_along_the_push(kind: str) -> None:
     """One overlap test against `swept` says what tests of the hand at every pose along the
