@@ -286,6 +286,22 @@ def test_sweep_cli_small_run_resumes_and_draws(tmp_path: Path) -> None:
         check_validation(report, out, "push-grasp")
 
 
+def _assert_predicted_and_held(aperture: float, pose: tuple[float, float, float]) -> None:
+    """The poptart box at ``pose`` (push frame) is inside the region at ``aperture``, and the
+    push-grasp of the region's distance holds it in pybullet."""
+    spec = get_object("poptart_box")
+    region = push_grasp_region(spec.footprint, aperture)
+    poses = np.array([pose])
+    assert vc.predictions(region, poses)[0][0]
+    distance = float(vc.push_distances(region, poses)[0])
+    env = ClutterRetrieveEnv()
+    outcome = vc.run_trial(
+        env, "poptart_box", vc.plan_push(spec, aperture, 0.0, distance), poses[0]
+    )
+    env.close()
+    assert outcome == "success", (distance, outcome)
+
+
 @pytest.mark.parametrize(
     ("aperture", "x"),
     [
@@ -300,15 +316,7 @@ def test_a_box_nearly_across_the_hand_is_held_after_the_planners_push(
     """The poptart box turned 80 deg straight ahead of the hand, pushed the region's need plus
     1 cm, toppled or left the table when the fingers closed (validation at 5 deg, stop 38): it
     is still turning into the palm there. The planner's push for a box (`push_margin`) holds it."""
-    spec = get_object("poptart_box")
-    region = push_grasp_region(spec.footprint, aperture)
-    pose = np.array([[x, 0.0, math.radians(80.0)]])
-    assert vc.predictions(region, pose)[0][0]
-    distance = float(vc.push_distances(region, pose)[0])
-    env = ClutterRetrieveEnv()
-    outcome = vc.run_trial(env, "poptart_box", vc.plan_push(spec, aperture, 0.0, distance), pose[0])
-    env.close()
-    assert outcome == "success", (distance, outcome)
+    _assert_predicted_and_held(aperture, (x, 0.0, math.radians(80.0)))
 
 
 @pytest.mark.parametrize(
@@ -318,15 +326,7 @@ def test_a_box_pushed_end_on_into_a_v_preshape_is_predicted_and_held(aperture: f
     """Pushed end-on into a V preshape, the poptart box rests at the palm with its centre ahead
     of the fingertip line (0.155 m against 0.154 and 0.130 m): the regions counted no such box
     captured, where closing holds it. Predicted now, and held after the planner's push."""
-    spec = get_object("poptart_box")
-    region = push_grasp_region(spec.footprint, aperture)
-    pose = np.array([[0.3, 0.0, 0.0]])
-    assert vc.predictions(region, pose)[0][0]
-    distance = float(vc.push_distances(region, pose)[0])
-    env = ClutterRetrieveEnv()
-    outcome = vc.run_trial(env, "poptart_box", vc.plan_push(spec, aperture, 0.0, distance), pose[0])
-    env.close()
-    assert outcome == "success", (distance, outcome)
+    _assert_predicted_and_held(aperture, (0.3, 0.0, 0.0))
 
 
 def test_two_fingers_closing_on_a_box_do_not_back_drive_the_third() -> None:

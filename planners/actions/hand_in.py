@@ -238,7 +238,8 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     for most_ahead, most_aside in TURN_SEAT:
         # 1e-9: the measured poses lie on the envelope's edge, give or take rounding.
         seated |= (ahead <= most_ahead + 1e-9) & (np.abs(in_hand[:, 1]) <= most_aside + 1e-9)
-    banded = (np.abs(off_axis) <= TURN_BAND) & seated
+    near_axis = np.abs(off_axis) <= TURN_BAND
+    banded = near_axis & seated
     rest_low, seated_high, far_high = TURN_REST
     rest_high = np.interp(ahead, (0.0, TURN_SEAT[-1][0]), (seated_high, far_high))
     low = np.where(banded, np.minimum(off_axis, rest_low), off_axis)
@@ -246,7 +247,6 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     high = np.where(banded, np.maximum(off_axis, rest_high), anywhere)
     fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     turned = np.repeat(in_hand[None], CLOSING_STAGES, axis=0)
-    near_axis = np.abs(off_axis) <= TURN_BAND
     shove = np.where(
         near_axis, np.interp(np.abs(off_axis), *CLOSING_SHOVE), CLOSING_SHOVE_ELSEWHERE
     )
