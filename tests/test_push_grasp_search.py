@@ -407,6 +407,53 @@ def test_a_pose_whose_hand_meets_an_object_is_refused_after_one_check() -> None:
     assert reached >= 2
 
 
+def test_an_ik_answer_is_found_once_per_pose_obstacles_and_hand() -> None:
+    """The actions ask for the same sweep or push start under every parent candidate: the same
+    volume and hand give the same check, and a pose's answer under it costs no collision check
+    the second time and is the answer a fresh check gives (a copy: callers may change it)."""
+    from clutter_gym.model.herb import HandCommand
+    from clutter_gym.model.reachability import hand_pose
+
+    ctx = _scene_context(("can", "soda_can", (0.75, -0.25, 0.0)))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    avoid = ctx.objects_volume(("can",))
+    hand = HandCommand(0.0, 0.0)
+    free = arm.free_check(avoid, hand)
+    assert arm.free_check(avoid, hand) is free
+    assert arm.free_check(avoid, HandCommand(0.0, 1.0)) is not free
+    assert arm.free_check(ctx.objects_volume(()), hand) is not free
+    pose = hand_pose(np.array([0.62, 0.05]), 0.0, TABLE.top_z + PUSH_HEIGHT)
+    first = arm.solve(pose, free)
+    assert first is not None
+    first[:] = 0.0
+    before = ctx.stats.collision_checks
+    again = arm.solve(pose, free)
+    assert ctx.stats.collision_checks == before
+    fresh = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    expected = fresh.solve(pose, fresh.free_check(avoid, hand))
+    assert again is not None and expected is not None
+    np.testing.assert_array_equal(again, expected)
+
+
+def test_a_sweep_starts_with_the_arm_clear_of_the_object_it_sweeps() -> None:
+    """The approach or transit brings the arm to a sweep's start with the object standing
+    where it was detected, so the start must be clear of its samples too: beside a large box
+    the first IK solution at the start often puts the elbow in the box (two of the four
+    sweeps found here did before the start was checked against the box)."""
+    ctx = _box_context()
+    ctx.settings = dataclasses.replace(ctx.settings, candidates_per_action=10)
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    centre = np.array([0.75, -0.20, TABLE.top_z + 0.1])
+    goal = AwayFrom(Volume.of_box("ngr", centre, (0.25, 0.25, 0.2), 0.0))
+    outcomes = sweep_action.sweep(ctx, arm, "box", goal, Volume())
+    found = [o for o in outcomes if isinstance(o, ActionResult)]
+    assert found
+    for result in found:
+        start = result.trajectory.segments[0]
+        in_box = arm.free_check(ctx.uncertainty_volume("box"), start.hand)
+        assert in_box(start.path[0])
+
+
 def test_only_static_grasp_poses_that_reach_ik_use_up_the_ik_tries(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

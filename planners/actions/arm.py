@@ -35,6 +35,8 @@ WAYPOINT_SPACING = 0.025
 """m between waypoints of straight hand motions."""
 POSE_KEY_DECIMALS = 9
 """Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
+CHECKS_KEPT = 256
+"""Collision checks `Arm.free_check` keeps (most recent), each with its IK answers."""
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
@@ -51,6 +53,8 @@ class ArmCheck:
         self._free = checker.checker(hand)
         self._hand = checker.hand_checker(hand)
         self._stats = stats
+        #: `Arm.solve`'s answers under this check, by target pose.
+        self.solved: dict[bytes, np.ndarray | None] = {}
 
     def __call__(self, q: np.ndarray) -> bool:
         self._stats.collision_checks += 1
@@ -83,6 +87,9 @@ class Arm:
         # The planner asks for the same poses again and again with other obstacles: each
         # pose's analytic IK solutions (seeded by the home pose) are computed once.
         self._solutions: dict[bytes, np.ndarray] = {}
+        # ... and each (pose, obstacles, hand)'s answer once: the actions ask for the same
+        # start of a sweep or push under every parent candidate (`free_check`).
+        self._checks: dict[tuple[int, HandCommand, bool], tuple[Volume, ArmCheck]] = {}
         self._ik = ik
 
     @property
@@ -96,9 +103,19 @@ class Arm:
         """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
         ``obstacles``, the union of every object's uncertainty samples (each object's convex
         hull first, the samples themselves only where a hull is hit; with ``exact`` the samples
-        alone: for the hand moving away from an object it has just placed)."""
-        world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
-        return ArmCheck(CollisionChecker(world, self.robot), hand, self.stats)
+        alone: for the hand moving away from an object it has just placed). The same volume
+        and hand get the same check (the last `CHECKS_KEPT`), with the IK answers found under
+        it."""
+        key = (id(obstacles), hand, exact)
+        kept = self._checks.get(key)
+        if kept is None:
+            world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
+            check = ArmCheck(CollisionChecker(world, self.robot), hand, self.stats)
+            if len(self._checks) >= CHECKS_KEPT:
+                del self._checks[next(iter(self._checks))]
+            # The volume is kept with its check: its id stays its own while the entry lives.
+            kept = self._checks[key] = (obstacles, check)
+        return kept[1]
 
     def motion_free(self, segments: Iterable[Segment], obstacles: Volume) -> bool:
         """Whether every segment is clear of ``obstacles``, checked every `ARM_CHECK_STEP`."""
@@ -135,13 +152,21 @@ class Arm:
         with self.stats.timed("ik"):
             if self._ik is not None:
                 return self._ik(target, accept)
-            if isinstance(accept, ArmCheck) and not accept.hand_clear(target):
-                return None  # the hand stands there in every solution
             key = (np.round(target, POSE_KEY_DECIMALS) + 0.0).tobytes()  # + 0.0: no -0.0
-            solutions = self._solutions.get(key)
-            if solutions is None:
-                solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
-            return self.kinematics.select(solutions, accept)
+            if not isinstance(accept, ArmCheck):
+                return self._select(key, target, accept)
+            if key not in accept.solved:
+                clear = accept.hand_clear(target)  # else the hand stands there in every solution
+                accept.solved[key] = self._select(key, target, accept) if clear else None
+            q = accept.solved[key]
+            return None if q is None else q.copy()
+
+    def _select(self, key: bytes, target: np.ndarray, accept: Free) -> np.ndarray | None:
+        """The first of the pose's analytic solutions (computed once per pose) ``accept`` takes."""
+        solutions = self._solutions.get(key)
+        if solutions is None:
+            solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
+        return self.kinematics.select(solutions, accept)
 
     def line_heights(self, start_xy: np.ndarray, end_xy: np.ndarray, heading: float) -> list[float]:
         """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects

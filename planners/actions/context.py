@@ -63,6 +63,7 @@ class PlanningContext:
         self.failures = FailureLog()
         self._volumes: dict[str, Volume] = {}
         self._sums: dict[frozenset[str], Volume] = {}
+        self._with_own: dict[tuple[int, str], tuple[Volume, Volume]] = {}
         #: Sweep evolutions simulated so far, by object and sweep frame (`SweepEvolution`).
         self.sweeps: dict[tuple[Hashable, ...], SweepEvolution] = {}
         #: Push-grasp evolutions nu_o (world poses) by object, heading, aperture and offset:
@@ -113,6 +114,16 @@ class PlanningContext:
                 total += self.uncertainty_volume(name)
             self._sums[key] = total
         return self._sums[key]
+
+    def with_own_samples(self, avoid: Volume, name: str) -> Volume:
+        """avoidVol plus U(name) (cached per avoidVol and object): what the arm must clear
+        where an action on ``name`` starts, before the hand touches it. The approach or
+        transit that brings the arm there sees the object standing where it was detected."""
+        key = (id(avoid), name)
+        if key not in self._with_own:
+            # avoidVol is kept with the sum: its id stays its own while the entry lives.
+            self._with_own[key] = (avoid, avoid + self.uncertainty_volume(name))
+        return self._with_own[key][1]
 
     def stable_mask(self, name: str, poses: np.ndarray) -> np.ndarray:
         """StablePoses, per pose: upright on the surface. On the open table the centre of mass

@@ -108,11 +108,12 @@ def _sweep_at(
         return
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
     free = arm.free_check(avoid, hand)
+    at_start = arm.free_check(ctx.with_own_samples(avoid, name), hand)
     # Placements in order until one gives a sweep: where the object meets the hand decides how
     # long the region holds it and which way it turns, so one placement's failure (a short
     # hold, a corner swinging into avoidVol) says nothing about the next one's.
     for fraction in SWEEP_PLACEMENTS:
-        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
+        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free, at_start)
         if isinstance(placement, Failure):
             yield placement
             continue
@@ -128,8 +129,9 @@ def _sweep_at(
         # At the placement's height, or higher where the straight line is out of reach there.
         heights = [z for z in _heights(ctx, arm, placed, start_xy, end_xy) if z >= placed.z]
         for z in heights or [placed.z]:
+            at_z = replace(placed, z=z)
             result = _sweep_motion(
-                ctx, arm, name, avoid, replace(placed, z=z), frame, hand, free, distance, nu
+                ctx, arm, name, avoid, at_z, frame, hand, (free, at_start), distance, nu
             )
             if not isinstance(result, Failure):
                 break
@@ -213,10 +215,12 @@ def _placement(
     guess: float,
     avoid: Volume,
     free: Free,
+    at_start: Free,
 ) -> tuple[Frame2D, np.ndarray, _Sweep] | Failure:
     """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
-    capture region holds every sample and the arm reaches the start and the guessed end; the
-    sweep at the lowest height the arm holds the hand there (`Arm.push_height`)."""
+    capture region holds every sample and the arm reaches the start (clear of the object too:
+    ``at_start``) and the guessed end; the sweep at the lowest height the arm holds the hand
+    there (`Arm.push_height`)."""
     frame, in_frame = _frame_at(ctx, name, plan, fraction)
     with ctx.stats.timed("capture"):
         captured = bool(plan.region.query(in_frame, float(guess))[0].all())
@@ -235,10 +239,10 @@ def _placement(
         return Failure(name, ACTION, OUT_OF_REACH)
     why = "no collision-free IK solution at the start of the sweep"
     for z in heights:
-        if arm.solve(hand_pose(start_xy, plan.approach, z), free) is None:
+        if arm.solve(hand_pose(start_xy, plan.approach, z), at_start) is None:
             continue
         at_z = replace(plan, z=z)
-        line = _straight_sweep(arm, at_z, start_xy, end_xy, free)
+        line = _straight_sweep(arm, at_z, start_xy, end_xy, (free, at_start))
         if not isinstance(line, str):
             return frame, in_frame, at_z
         why = line
@@ -288,7 +292,8 @@ def sweep_with(
     nu = np.stack([samples, translated(samples, distance * frame.x_axis)])
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
     free = arm.free_check(avoid, hand)
-    return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, distance, nu)
+    at_start = arm.free_check(ctx.with_own_samples(avoid, name), hand)
+    return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, (free, at_start), distance, nu)
 
 
 def _simulate(
@@ -337,11 +342,12 @@ def _sweep_motion(
     plan: _Sweep,
     frame: Frame2D,
     hand: HandCommand,
-    free: Free,
+    free: tuple[Free, Free],
     distance: float,
     nu: np.ndarray,
 ) -> Outcome:
-    """The arm's sweep, retreat and rise, checked against avoidVol and the placed object."""
+    """The arm's sweep, retreat and rise, checked against avoidVol and the placed object
+    (``free``: clear of avoidVol, and at the start of the object's samples too)."""
     spec = ctx.beliefs[name].spec
     start_xy = np.asarray(frame.origin)
     end_xy = start_xy + distance * frame.x_axis
@@ -381,20 +387,29 @@ def _sweep_motion(
 
 
 def _straight_sweep(
-    arm: Arm, plan: _Sweep, start_xy: np.ndarray, end_xy: np.ndarray, free: Free
+    arm: Arm,
+    plan: _Sweep,
+    start_xy: np.ndarray,
+    end_xy: np.ndarray,
+    free: tuple[Free, Free],
 ) -> np.ndarray | str:
-    """The straight hand line from start to end, or why there is none. Traced back from an
-    IK solution at the end, then forward from one at the start: a long sweep across the body
-    can leave the branch of one end's solution (a wrist limit) yet be straight from the other."""
+    """The straight hand line from start to end, or why there is none: every configuration
+    clear of avoidVol (``free[0]``), the first one also of the object's samples (``free[1]``:
+    the arm stands there before the hand meets the object, and the approach or transit must
+    reach it; a large box's sweep may otherwise start with the elbow in the box). Traced back
+    from an IK solution at the end, then forward from one at the start: a long sweep across
+    the body can leave the branch of one end's solution (a wrist limit) or start inside the
+    object, yet be straight from the other end."""
+    clear, at_start = free
     start, end = (hand_pose(xy, plan.approach, plan.z) for xy in (start_xy, end_xy))
-    q_end = arm.solve(end, free)
+    q_end = arm.solve(end, clear)
     if q_end is None:
         return "no collision-free IK solution at the end of the sweep"
-    back = arm.straight(q_end, start, free)
-    if back is not None:
+    back = arm.straight(q_end, start, clear)
+    if back is not None and at_start(back[-1]):
         return back[::-1].copy()
-    q_start = arm.solve(start, free)
-    forward = None if q_start is None else arm.straight(q_start, end, free)
+    q_start = arm.solve(start, at_start)
+    forward = None if q_start is None else arm.straight(q_start, end, clear)
     if forward is None:
         return "the straight sweep is out of reach or hits avoidVol"
     return forward
