@@ -36,7 +36,7 @@ WAYPOINT_SPACING = 0.025
 POSE_KEY_DECIMALS = 9
 """Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
 CHECKS_KEPT = 256
-"""Collision checks `Arm.free_check` keeps (most recent), each with its IK answers."""
+"""Collision checks `Arm.free_check` keeps (the most recently used), each with its IK answers."""
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
@@ -104,17 +104,17 @@ class Arm:
         ``obstacles``, the union of every object's uncertainty samples (each object's convex
         hull first, the samples themselves only where a hull is hit; with ``exact`` the samples
         alone: for the hand moving away from an object it has just placed). The same volume
-        and hand get the same check (the last `CHECKS_KEPT`), with the IK answers found under
+        and hand get the same check (`CHECKS_KEPT` of them), with the IK answers found under
         it."""
         key = (id(obstacles), hand, exact)
-        kept = self._checks.get(key)
+        kept = self._checks.pop(key, None)  # re-inserted last: the least recently used go
         if kept is None:
             world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
-            check = ArmCheck(CollisionChecker(world, self.robot), hand, self.stats)
+            kept = (obstacles, ArmCheck(CollisionChecker(world, self.robot), hand, self.stats))
             if len(self._checks) >= CHECKS_KEPT:
                 del self._checks[next(iter(self._checks))]
-            # The volume is kept with its check: its id stays its own while the entry lives.
-            kept = self._checks[key] = (obstacles, check)
+        # The volume is kept with its check: its id stays its own while the entry lives.
+        self._checks[key] = kept
         return kept[1]
 
     def motion_free(self, segments: Iterable[Segment], obstacles: Volume) -> bool:
