@@ -107,13 +107,12 @@ def _sweep_at(
         yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
         return
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
-    free = arm.free_check(avoid, hand)
-    at_start = arm.free_check(ctx.with_own_samples(avoid, name), hand)
+    free = _clearances(ctx, arm, name, avoid, hand)
     # Placements in order until one gives a sweep: where the object meets the hand decides how
     # long the region holds it and which way it turns, so one placement's failure (a short
     # hold, a corner swinging into avoidVol) says nothing about the next one's.
     for fraction in SWEEP_PLACEMENTS:
-        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free, at_start)
+        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
         if isinstance(placement, Failure):
             yield placement
             continue
@@ -129,15 +128,24 @@ def _sweep_at(
         # At the placement's height, or higher where the straight line is out of reach there.
         heights = [z for z in _heights(ctx, arm, placed, start_xy, end_xy) if z >= placed.z]
         for z in heights or [placed.z]:
-            at_z = replace(placed, z=z)
             result = _sweep_motion(
-                ctx, arm, name, avoid, at_z, frame, hand, (free, at_start), distance, nu
+                ctx, arm, name, avoid, replace(placed, z=z), frame, hand, free, distance, nu
             )
             if not isinstance(result, Failure):
                 break
         yield result
         if not isinstance(result, Failure):
             return
+
+
+def _clearances(
+    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, hand: HandCommand
+) -> tuple[Free, Free]:
+    """The sweep's collision checks: clear of avoidVol, and, where it starts, of the object's
+    own samples too (the approach or transit brings the arm there with the object standing
+    where it was detected; beside a large box the first IK solution often has the elbow in
+    it)."""
+    return arm.free_check(avoid, hand), arm.free_check(ctx.with_own_samples(avoid, name), hand)
 
 
 def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) -> _Sweep:
@@ -214,12 +222,11 @@ def _placement(
     fraction: float,
     guess: float,
     avoid: Volume,
-    free: Free,
-    at_start: Free,
+    free: tuple[Free, Free],
 ) -> tuple[Frame2D, np.ndarray, _Sweep] | Failure:
     """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
     capture region holds every sample and the arm reaches the start (clear of the object too:
-    ``at_start``) and the guessed end; the sweep at the lowest height the arm holds the hand
+    `_clearances`) and the guessed end; the sweep at the lowest height the arm holds the hand
     there (`Arm.push_height`)."""
     frame, in_frame = _frame_at(ctx, name, plan, fraction)
     with ctx.stats.timed("capture"):
@@ -239,10 +246,10 @@ def _placement(
         return Failure(name, ACTION, OUT_OF_REACH)
     why = "no collision-free IK solution at the start of the sweep"
     for z in heights:
-        if arm.solve(hand_pose(start_xy, plan.approach, z), at_start) is None:
+        if arm.solve(hand_pose(start_xy, plan.approach, z), free[1]) is None:
             continue
         at_z = replace(plan, z=z)
-        line = _straight_sweep(arm, at_z, start_xy, end_xy, (free, at_start))
+        line = _straight_sweep(arm, at_z, start_xy, end_xy, free)
         if not isinstance(line, str):
             return frame, in_frame, at_z
         why = line
@@ -291,9 +298,8 @@ def sweep_with(
     samples = ctx.beliefs[name].samples
     nu = np.stack([samples, translated(samples, distance * frame.x_axis)])
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
-    free = arm.free_check(avoid, hand)
-    at_start = arm.free_check(ctx.with_own_samples(avoid, name), hand)
-    return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, (free, at_start), distance, nu)
+    free = _clearances(ctx, arm, name, avoid, hand)
+    return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, distance, nu)
 
 
 def _simulate(
@@ -347,7 +353,7 @@ def _sweep_motion(
     nu: np.ndarray,
 ) -> Outcome:
     """The arm's sweep, retreat and rise, checked against avoidVol and the placed object
-    (``free``: clear of avoidVol, and at the start of the object's samples too)."""
+    (``free``: `_clearances`)."""
     spec = ctx.beliefs[name].spec
     start_xy = np.asarray(frame.origin)
     end_xy = start_xy + distance * frame.x_axis
@@ -394,9 +400,7 @@ def _straight_sweep(
     free: tuple[Free, Free],
 ) -> np.ndarray | str:
     """The straight hand line from start to end, or why there is none: every configuration
-    clear of avoidVol (``free[0]``), the first one also of the object's samples (``free[1]``:
-    the arm stands there before the hand meets the object, and the approach or transit must
-    reach it; a large box's sweep may otherwise start with the elbow in the box). Traced back
+    clear of avoidVol, the first one also of the object's samples (`_clearances`). Traced back
     from an IK solution at the end, then forward from one at the start: a long sweep across
     the body can leave the branch of one end's solution (a wrist limit) or start inside the
     object, yet be straight from the other end."""
