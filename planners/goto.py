@@ -65,6 +65,10 @@ def _request_error(
     return ""
 
 
+NO_PATH = "no path found"
+"""How the reason of a request that planned and found nothing begins (as against bad input or
+an end in collision)."""
+
 PLAN_ATTEMPTS = 3
 """OMPL runs (seeds seed, seed + 1, ...) before a path that fails the dense re-check is final."""
 
@@ -270,8 +274,8 @@ def plan_goto(
             ou.setLogLevel(level)
         if path is None:
             if count.spent():
-                return result(None, f"no path found within {max_evaluations} evaluations")
-            return result(None, f"no path found within {time_budget:g} s")
+                return result(None, f"{NO_PATH} within {max_evaluations} evaluations")
+            return result(None, f"{NO_PATH} within {time_budget:g} s")
         error = _path_error(path, count.free, resolution, constraint)
         if not error:
             return result(path, "")

@@ -83,6 +83,12 @@ def test_fk_batch_matches_fk(right: ArmKinematics) -> None:
         np.testing.assert_allclose(batched(qs), [single(q) for q in qs], atol=1e-12)
 
 
+def test_elbow_points_are_the_wam4_link_frames(right: ArmKinematics) -> None:
+    qs = np.random.default_rng(3).uniform(right.lower, right.upper, (20, 7))
+    expected = np.array([right.link_frames(q)[4, :3, 3] for q in qs])
+    np.testing.assert_allclose(right.elbow_points(qs), expected, atol=1e-12)
+
+
 def test_custom_base_transform_moves_the_arm(right: ArmKinematics) -> None:
     shift = np.eye(4)
     shift[:3, 3] = (1.0, -2.0, 0.5)

@@ -149,6 +149,12 @@ class ArmKinematics:
         out[:, 3, 3] = 1.0
         return out
 
+    def elbow_points(self, qs: np.ndarray) -> np.ndarray:
+        """World positions (N, 3) of the elbow (the wam4 link frame, on the j4 axis) of an
+        (N, 7) array of configurations."""
+        qs = np.asarray(qs, dtype=float)
+        return self._propagate(self._base_columns(qs.shape[0]), qs[:, :3], 0)[3].T.copy()
+
     def _base_columns(self, n: int) -> np.ndarray:
         """DH frame 0 as `_propagate` carries frames: (4, 3, n), columns x, y, z, origin."""
         return np.repeat(self._frame0[:3, :].T[:, :, None], n, axis=2)

@@ -49,6 +49,8 @@ class Surface:
     ``bounds`` is the supporting top ``(x_min, x_max, y_min, y_max)`` that an object's
     footprint must stay inside (for the shelf: inside the walls).  ``workspace`` is the
     smaller area the right arm can reach, where scene generators place objects.
+    ``interior`` is the free space walls and a roof enclose above the top, entered only through
+    its open side (x, y, z ranges; None for an open table).
     """
 
     name: Literal["table", "shelf"]
@@ -58,6 +60,7 @@ class Surface:
     workspace: Region
     default_goal_region: Region
     success: Literal["lift", "region"]
+    interior: tuple[Range, Range, Range] | None = None
 
 
 def _table() -> Surface:
@@ -124,6 +127,7 @@ def _shelf() -> Surface:
         workspace=((0.56, 0.74), (-0.53, 0.10)),
         default_goal_region=((0.48, 0.58), (-0.45, 0.05)),
         success="region",
+        interior=(inner_x, inner_y, (top_z, ceiling)),
     )
 
 

@@ -27,7 +27,7 @@ from clutter_gym.model.reachability import HEIGHTS, shipped_map
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import Surface
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
-from planners.goto import JointConstraint, plan_goto
+from planners.goto import NO_PATH, JointConstraint, plan_goto
 
 ARM_CHECK_STEP = 0.02
 """rad between collision-checked configurations along a motion."""
@@ -37,6 +37,12 @@ POSE_KEY_DECIMALS = 9
 """Target poses equal to this many decimals share their analytic IK solutions (`Arm.solve`)."""
 CHECKS_KEPT = 256
 """Collision checks `Arm.free_check` keeps (the most recently used), each with its IK answers."""
+ELBOW_RADIUS = 0.055
+"""m: the radius of the WAM's elbow (the wam4 joint cylinder); an elbow centre this near a
+surface's interior stands in its opening (`Arm._select`)."""
+BACK_OUT = (0.25, 0.15)
+"""m the hand backs straight out of a narrow pocket before GoTo plans again (`Arm.goto`),
+longest first."""
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
@@ -140,7 +146,7 @@ class Arm:
 
     # -- inverse kinematics ---------------------------------------------------------------------
     def solve(self, target: np.ndarray, accept: Free) -> np.ndarray | None:
-        """The collision-free configuration nearest the home pose putting the TCP at
+        """The first collision-free configuration in `_ordered` order putting the TCP at
         ``target`` (4x4), or None. A horizontal hand the reachability map says no arm
         configuration reaches is refused at once, without IK (about half the IK solves of a
         cluttered scene fail)."""
@@ -162,11 +168,26 @@ class Arm:
             return None if q is None else q.copy()
 
     def _select(self, key: bytes, target: np.ndarray, accept: Free) -> np.ndarray | None:
-        """The first of the pose's analytic solutions (computed once per pose) ``accept`` takes."""
+        """The first of the pose's analytic solutions (computed once per pose, `_ordered`)
+        ``accept`` takes."""
         solutions = self._solutions.get(key)
         if solutions is None:
-            solutions = self._solutions[key] = self.kinematics.ik_solutions(target)
+            solutions = self._solutions[key] = self._ordered(self.kinematics.ik_solutions(target))
         return self.kinematics.select(solutions, accept)
+
+    def _ordered(self, solutions: np.ndarray) -> np.ndarray:
+        """The solutions nearest the home pose first; in an enclosed surface (the shelf) those
+        with the elbow in its interior or opening after all others: the arm gets there only
+        through the opening: all seven approaches one shelf scene lost (no path in 50000
+        evaluations either) went to postures with the elbow in the opening, and for three of
+        those poses GoTo reached other solutions, with the elbow in front."""
+        interior = self.surface.interior
+        if interior is None or not len(solutions):
+            return solutions
+        low, high = np.array(interior).T
+        elbows = self.kinematics.elbow_points(solutions)
+        inside = np.all((elbows > low - ELBOW_RADIUS) & (elbows < high + ELBOW_RADIUS), axis=1)
+        return solutions[np.argsort(inside, kind="stable")]
 
     def line_heights(self, start_xy: np.ndarray, end_xy: np.ndarray, heading: float) -> list[float]:
         """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
@@ -205,8 +226,44 @@ class Arm:
     def goto(
         self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
     ) -> tuple[np.ndarray | None, str]:
-        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself)."""
-        return self.plan_path(start, goal, self.free_check(obstacles, hand))
+        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself).
+
+        Where RRTConnect finds no path, an end may stand in a narrow pocket (a hand among the
+        shelf's walls: seven approaches one shelf scene lost found no path with 50000
+        evaluations either, and from none could the hand move 5 cm toward the robot). A real
+        hand leaves such a place the way it came: straight. Each end backs its hand
+        out (`_backed_out`) and GoTo plans once more between the backed-out configurations."""
+        free = self.free_check(obstacles, hand)
+        path, reason = self.plan_path(start, goal, free)
+        if path is not None or not reason.startswith(NO_PATH):
+            return path, reason
+        leave, enter = self._backed_out(start, free), self._backed_out(goal, free)
+        if leave is None and enter is None:
+            return None, reason
+        middle, _ = self.plan_path(
+            start if leave is None else leave[-1], goal if enter is None else enter[-1], free
+        )
+        if middle is None:
+            return None, reason
+        parts = [middle] if leave is None else [leave[:-1], middle]
+        return np.concatenate(parts if enter is None else [*parts, enter[-2::-1]]), ""
+
+    def _backed_out(self, q: np.ndarray, free: Free) -> np.ndarray | None:
+        """A straight hand motion from q out of where it stands, or None: toward the shoulder
+        (out of the shelf's opening), back along the hand's approach axis, or up, by each of
+        `BACK_OUT` in turn."""
+        tcp = self.kinematics.fk_tcp(q)
+        toward = self.kinematics.shoulder - tcp[:3, 3]
+        toward[2] = 0.0
+        toward /= max(float(np.linalg.norm(toward)), 1e-9)
+        for direction in (toward, -tcp[:3, 2], np.array([0.0, 0.0, 1.0])):
+            for distance in BACK_OUT:
+                target = tcp.copy()
+                target[:3, 3] += distance * direction
+                path = self.straight(q, target, free)
+                if path is not None:
+                    return path
+        return None
 
     def plan_path(
         self,

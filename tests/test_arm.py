@@ -1,0 +1,84 @@
+"""The actions' arm (planners/actions/arm.py) in the shelf: which IK solution it takes, and a
+GoTo that backs the hand out of a narrow pocket."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clutter_gym.model.collision import Volume, interpolate
+from clutter_gym.model.herb import RIGHT_ARM_START, HandCommand
+from clutter_gym.model.reachability import hand_pose
+from clutter_gym.model.world import SHELF, TABLE, Surface
+from planners.actions.arm import ARM_CHECK_STEP, ELBOW_RADIUS, Arm
+from planners.actions.settings import Budget, PlannerSettings, PlanStats
+
+#: Hands in the shelf, each (hand_base x, y, heading): poses whose IK solution nearest the home
+#: pose has the elbow in the shelf's opening, where a solution with it in front exists.
+IN_SHELF = [(0.55, -0.1, -1.0), (0.55, -0.3, 0.5), (0.6, 0.0, -0.5)]
+HAND = HandCommand(0.0, 0.4)
+
+
+def make_arm(surface: Surface, **settings: float) -> Arm:
+    return Arm(surface, PlannerSettings(seed=0, **settings), PlanStats(), Budget(60.0))  # type: ignore[arg-type]
+
+
+def elbow_in_shelf(arm: Arm, q: np.ndarray) -> bool:
+    assert SHELF.interior is not None
+    low, high = np.array(SHELF.interior).T
+    elbow = arm.kinematics.elbow_points(q[None])[0]
+    return bool(np.all((elbow > low - ELBOW_RADIUS) & (elbow < high + ELBOW_RADIUS)))
+
+
+@pytest.mark.parametrize("x, y, heading", IN_SHELF)
+def test_in_the_shelf_a_solution_with_the_elbow_in_front_of_it_comes_first(
+    x: float, y: float, heading: float
+) -> None:
+    arm = make_arm(SHELF)
+    target = hand_pose(np.array([x, y]), heading, SHELF.top_z + 0.08)
+    nearest_home = arm.kinematics.ik_solutions(target)[0]
+    assert elbow_in_shelf(arm, nearest_home)
+    q = arm.solve(target, lambda q: True)
+    assert q is not None
+    np.testing.assert_allclose(arm.kinematics.fk_tcp(q), target, atol=1e-6)
+    assert not elbow_in_shelf(arm, q)
+
+
+def test_on_the_table_the_solution_nearest_home_comes_first() -> None:
+    arm = make_arm(TABLE)
+    target = hand_pose(np.array([0.6, -0.2]), 0.0, TABLE.top_z + 0.08)
+    q = arm.solve(target, lambda q: True)
+    assert q is not None
+    np.testing.assert_array_equal(q, arm.kinematics.ik_solutions(target)[0])
+
+
+def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() -> None:
+    """A synthetic pocket: the goal's hand is in the shelf and the arm is free only along the
+    straight line that backs it out toward the shoulder (a 0.03 rad tube) and wherever the hand
+    is out of the shelf. RRTConnect alone does not find the tube; GoTo backs out first."""
+    arm = make_arm(SHELF, goto_evaluations=5000)
+    goal = arm.solve(hand_pose(np.array([0.54, -0.45]), 0.4, SHELF.top_z + 0.08), lambda q: True)
+    assert goal is not None
+    line = arm._backed_out(goal, lambda q: True)
+    assert line is not None
+    tube = interpolate(line, ARM_CHECK_STEP / 2)
+    front = SHELF.bounds[0]
+
+    def free(q: np.ndarray) -> bool:
+        out = arm.kinematics.fk_tcp(q)[0, 3] < front - 0.03
+        return bool(out or np.min(np.max(np.abs(tube - q), axis=1)) < 0.03)
+
+    arm.free_check = lambda obstacles, hand, exact=False: free  # type: ignore[method-assign]
+    start = RIGHT_ARM_START
+    plain, reason = arm.plan_path(start, goal, free)
+    assert plain is None and reason.startswith("no path found"), reason
+    path, reason = arm.goto(start, goal, Volume(), HAND)
+    assert path is not None, reason
+    np.testing.assert_allclose(path[0], start)
+    np.testing.assert_allclose(path[-1], goal)
+    assert all(free(q) for q in interpolate(path, ARM_CHECK_STEP))
+    # The last stretch is the hand coming straight back in: its TCP on one line.
+    tcp = np.array([arm.kinematics.fk_tcp(q)[:3, 3] for q in path[-len(line) :]])
+    direction = tcp[-1] - tcp[0]
+    off_line = np.cross(tcp - tcp[0], direction / np.linalg.norm(direction))
+    assert np.max(np.linalg.norm(off_line, axis=1)) < 1e-3
