@@ -246,7 +246,11 @@ class Arm:
         if middle is None:
             return None, reason
         parts = [middle] if leave is None else [leave[:-1], middle]
-        return np.concatenate(parts if enter is None else [*parts, enter[-2::-1]]), ""
+        path = np.concatenate(parts if enter is None else [*parts, enter[-2::-1]])
+        # The straight lines were checked at their waypoints; a GoTo path is free throughout.
+        if not all(free(q) for q in interpolate(path, ARM_CHECK_STEP)):
+            return None, reason
+        return path, ""
 
     def _backed_out(self, q: np.ndarray, free: Free) -> np.ndarray | None:
         """A straight hand motion from q out of where it stands, or None: toward the shoulder
