@@ -6,14 +6,16 @@ import dataclasses
 import importlib
 import math
 from collections import Counter
+from types import SimpleNamespace
+from typing import cast
 
 import numpy as np
 import pytest
 
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import OBJECTS, get_object
-from clutter_gym.model.reachability import HEIGHTS, PUSH_HEIGHT
-from clutter_gym.model.world import TABLE
+from clutter_gym.model.reachability import HEIGHTS, PUSH_HEIGHT, hand_pose
+from clutter_gym.model.world import SHELF, TABLE
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom
@@ -21,19 +23,29 @@ from planners.actions.hand_in import (
     CLOSING_CENTRE,
     CLOSING_SHOVE,
     CLOSING_SHOVE_ELSEWHERE,
+    CYLINDER_SEAT_ASIDE,
+    CYLINDER_TIP_HOLD,
     OUT_OF_REACH,
+    PINCH_MARGIN,
+    SHELF_LIFT,
+    STRIP_MARGIN,
     TURN_REST,
     closing_poses,
+    held_poses,
+    pull_targets,
 )
 from planners.actions.push_grasp import aperture_order, lateral_offsets
 from planners.actions.results import ActionResult, Failure
 from planners.actions.settings import PlannerSettings
 from planners.capture import push_grasp_apertures
-from planners.hand2d import PALM_FRONT, default_aperture
+from planners.hand2d import PALM_FRONT, STRAIGHT_APERTURE, default_aperture, push_grasp_profile
 from planners.uncertainty import ObjectBelief, sample_poses
 
 # The module, not the `sweep` action the package re-exports under the same name.
 sweep_action = importlib.import_module("planners.actions.sweep")
+
+
+STRAIGHT = push_grasp_profile(STRAIGHT_APERTURE)
 
 
 def test_offsets_run_from_the_middle_of_the_spread_to_both_extremes() -> None:
@@ -534,18 +546,16 @@ def test_all_offsets_planned_at_once_are_each_offsets_own_plan(kind: str) -> Non
 
 
 def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:
-    """`closing_poses`: a cylinder stays; a box near the palm, turned less than `TURN_BAND`
-    from the approach axis, sweeps only the orientations between its own and its rest; a box
-    across the hand, or far ahead of the palm, may stand at any orientation."""
-    can = get_object("soda_can").footprint
-    assert closing_poses(can, np.array([[0.2, 0.01, 1.0]])).shape == (1, 1, 3)
+    """`closing_poses`: a box near the palm, turned less than `TURN_BAND` from the approach
+    axis, sweeps only the orientations between its own and its rest; a box across the hand, or
+    far ahead of the palm, may stand at any orientation."""
     box = get_object("poptart_box").footprint
     hx, hy = box.half_extents
 
     def stages(degrees: float, ahead: float, aside: float = 0.0) -> np.ndarray:
         theta = math.radians(degrees)
         x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta)) + ahead
-        return np.degrees(closing_poses(box, np.array([[x, aside, theta]]))[:, 0, 2])
+        return np.degrees(closing_poses(box, np.array([[x, aside, theta]]), STRAIGHT)[:, 0, 2])
 
     turned = stages(30.0, 0.0)
     assert turned.min() == pytest.approx(math.degrees(TURN_REST[0]))
@@ -558,14 +568,14 @@ def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:
 def test_a_closing_hand_shoves_a_box_off_the_palm_the_more_the_further_from_the_axis() -> None:
     """`closing_poses`: while the fingers close, a box moves away from the palm by the measured
     envelope (more the further it is turned from the approach axis, most across the hand) and
-    ends at `CLOSING_CENTRE` across it; a cylinder is not moved."""
+    ends at `CLOSING_CENTRE` across it."""
     box = get_object("poptart_box").footprint
     hx, hy = box.half_extents
 
     def moved(degrees: float, aside: float) -> np.ndarray:
         theta = math.radians(degrees)
         x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta))
-        stages = closing_poses(box, np.array([[x, aside, theta]]))[:, 0, :2]
+        stages = closing_poses(box, np.array([[x, aside, theta]]), STRAIGHT)[:, 0, :2]
         assert np.all(np.diff(stages[:, 0]) >= 0.0)  # away from the palm, never back
         return stages[-1] - (x, aside)
 
@@ -574,10 +584,36 @@ def test_a_closing_hand_shoves_a_box_off_the_palm_the_more_the_further_from_the_
     assert shoves[2] == pytest.approx(CLOSING_SHOVE[1][-1]) and shoves[3] == CLOSING_SHOVE_ELSEWHERE
     for aside in (-0.02, 0.0, 0.02):
         assert aside + moved(20.0, aside)[1] == pytest.approx(CLOSING_CENTRE)
-    can = get_object("soda_can").footprint
-    assert np.array_equal(
-        closing_poses(can, np.array([[0.2, 0.01, 1.0]]))[:, 0], [[0.2, 0.01, 1.0]]
-    )
+
+
+@pytest.mark.parametrize("kind", ["soda_can", "juice_bottle"])
+def test_closing_fingers_draw_a_cylinder_near_the_palm_to_its_seat(kind: str) -> None:
+    """`closing_poses`: a cylinder standing well behind the fingertip line (the straight
+    preshape's), anywhere across the hand, is carried
+    to the palm and into `CYLINDER_SEAT_ASIDE`, and the held poses are that last stage; one
+    further ahead may be drawn in or pinched by the fingertips: anywhere in `CYLINDER_TIP_HOLD`."""
+    footprint = get_object(kind).footprint
+    seat_x = PALM_FRONT + footprint.radius
+    near = np.array([[seat_x + 0.015, 0.05, 1.0], [seat_x, -0.04, 0.0], [seat_x + 0.01, 0.0, 2.0]])
+    stages = closing_poses(footprint, near, STRAIGHT)
+    assert np.array_equal(stages[0], near)
+    assert np.allclose(stages[-1, :, 0], seat_x)
+    low, high = CYLINDER_SEAT_ASIDE
+    assert np.all((stages[-1, :, 1] >= low) & (stages[-1, :, 1] <= high))
+    assert np.ptp(stages[-1, :, 1]) == pytest.approx(high - low)  # the measured band, spanned
+    assert np.array_equal(stages[:, :, 2], np.broadcast_to(near[:, 2], stages.shape[:2]))
+    assert np.array_equal(held_poses(footprint, stages, STRAIGHT), stages[-1])
+    ahead = np.array([[STRAIGHT.grasp_line - PINCH_MARGIN + 0.005, 0.03, 0.0]])
+    pinched = closing_poses(footprint, ahead, STRAIGHT)[:, 0]
+    out, (right, left) = CYLINDER_TIP_HOLD
+    assert pinched[1:, 0].min() == pytest.approx(seat_x)  # drawn in, or
+    assert pinched[1:, 0].max() == pytest.approx(ahead[0, 0] + out)  # pinched further out
+    assert set(pinched[1:, 1]) == {right, left}
+    mixed = closing_poses(footprint, np.concatenate([near, ahead]), STRAIGHT)
+    assert held_poses(footprint, mixed, STRAIGHT).shape == (mixed.size // 3, 3)  # every stage
+    box = get_object("poptart_box").footprint
+    box_stages = closing_poses(box, near, STRAIGHT)
+    assert held_poses(box, box_stages, STRAIGHT).shape == (box_stages.size // 3, 3)
 
 
 def test_push_headings_run_over_the_grid_first_then_between_its_steps() -> None:
@@ -613,3 +649,28 @@ def test_an_obstacle_too_heavy_to_lift_is_never_carried(liftable: bool) -> None:
     carried = [o for o in outcomes if isinstance(o, ActionResult) and o.action == "pick-and-place"]
     refused = [o for o in outcomes if isinstance(o, Failure) and o.reason == "too heavy to lift"]
     assert bool(carried) == liftable and bool(refused) != liftable
+
+
+def test_a_pull_fits_every_held_pose_in_the_goal_strip_or_is_not_offered() -> None:
+    """`pull_targets`: held poses deeper than the strip at every turn of the hand get no pull; a
+    seated can's do, and the first moves them into the strip (x centred, y inside by the
+    margin)."""
+    (x0, x1), (y0, y1) = SHELF.default_goal_region
+    ctx = cast(PlanningContext, SimpleNamespace(goal_region=SHELF.default_goal_region))
+    end_xy, heading, z = np.array([0.62, -0.55]), 0.0, SHELF.top_z + 0.08
+    seated = np.column_stack([np.full(5, 0.74), np.linspace(-0.56, -0.55, 5), np.zeros(5)])
+    targets = pull_targets(ctx, end_xy, heading, z, seated)
+    assert targets
+    start = hand_pose(end_xy, heading, z + SHELF_LIFT)[:2, 3]
+    moved = seated[:, :2] + (targets[0][:2, 3] - start)  # the first target turns nothing
+    assert np.all((moved[:, 0] > x0) & (moved[:, 0] < x1))
+    assert np.all((moved[:, 1] >= y0 + STRIP_MARGIN - 1e-9) & (moved[:, 1] < y1))
+    deep = x1 - x0 + 0.01  # deeper than the strip, and as wide: no turn fits it
+    corners = [
+        (0.70, -0.56),
+        (0.70 + deep, -0.56),
+        (0.70, -0.56 + deep),
+        (0.70 + deep, -0.56 + deep),
+    ]
+    spread = np.column_stack([corners, np.zeros(4)])
+    assert pull_targets(ctx, end_xy, heading, z, spread) == []

@@ -20,7 +20,7 @@ from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.reachability import tcp_pose
 from clutter_gym.model.transforms import tilt_of_quaternion, yaw_of_quaternion
 from clutter_gym.model.world import TABLE
-from planners.actions.hand_in import closing_poses
+from planners.actions.hand_in import closing_poses, held_poses
 from planners.actions.pick_and_place import PLACE_ABOVE
 from planners.capture import V_APERTURES, push_grasp_region, sweep_region
 from planners.hand2d import (
@@ -399,7 +399,8 @@ def test_a_box_turns_toward_the_approach_axis_as_the_planner_expects(
     hx, hy = spec.footprint.half_extents
     theta = math.radians(degrees)
     x = PALM_FRONT + hx * abs(math.cos(theta)) + hy * abs(math.sin(theta)) + 0.003 + ahead
-    stages = closing_poses(spec.footprint, np.array([[x, y, theta]]))[:, 0]
+    profile = push_grasp_profile(aperture)
+    stages = closing_poses(spec.footprint, np.array([[x, y, theta]]), profile)[:, 0]
     assert np.ptp(stages[:, 2]) < math.radians(90.0)  # the band, not the half turn
     setup = vc.plan_push(spec, aperture, 0.0, 0.0)
     env = ClutterRetrieveEnv()
@@ -415,3 +416,31 @@ def test_a_box_turns_toward_the_approach_axis_as_the_planner_expects(
     turned = (yaw + math.pi / 2) % math.pi - math.pi / 2  # a box's faces repeat every half turn
     assert stages[:, 2].min() - 1e-9 <= turned <= stages[:, 2].max() + 1e-9, math.degrees(turned)
     assert abs(turned) < abs(theta)  # toward the axis
+
+
+@pytest.mark.parametrize(
+    ("kind", "ahead", "y"),
+    [("soda_can", 0.02, 0.045), ("juice_bottle", 0.01, -0.03), ("soda_can", 0.055, 0.02)],
+)
+def test_closing_fingers_hold_a_cylinder_where_the_planner_expects(
+    kind: str, ahead: float, y: float
+) -> None:
+    """A cylinder standing off the approach axis in the open hand ends, closed on and lifted,
+    among the planner's held poses (`held_poses`: against the palm in `CYLINDER_SEAT_ASIDE`
+    when it stood near it, else where the fingertips pinch it), not where it stood."""
+    spec = get_object(kind)
+    x = PALM_FRONT + spec.footprint.radius + ahead
+    samples = np.repeat([[x, y, 0.0]], 5, axis=0)  # several, as a belief has: the seat is a band
+    profile = push_grasp_profile(STRAIGHT_APERTURE)
+    held = held_poses(spec.footprint, closing_poses(spec.footprint, samples, profile), profile)
+    setup = vc.plan_push(spec, STRAIGHT_APERTURE, 0.0, 0.0)
+    env = ClutterRetrieveEnv()
+    assert vc.start_trial(env, setup, kind, (x, y, 0.0)) == ""
+    info = vc.step_actions(env, setup.actions)
+    end, _ = env.sim.base_pose("object")
+    env.close()
+    assert info["is_success"], info["failure"]
+    ended = setup.frame.to_frame(np.array([[end[0], end[1], 0.0]]))[0, :2]
+    assert np.all(ended >= held[:, :2].min(axis=0) - 0.003), (ended, held)
+    assert np.all(ended <= held[:, :2].max(axis=0) + 0.003), (ended, held)
+    assert abs(ended[1] - y) > 0.01  # it moved across the hand

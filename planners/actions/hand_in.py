@@ -30,7 +30,7 @@ from planners.actions.grasp_geometry import (
 )
 from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
-from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture
+from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture, grasp_depth
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 OUT_OF_REACH = "the reachability map rules out the hand on its way in"
@@ -65,6 +65,29 @@ CLOSING_CENTRE = -0.027
 """m: where a closing hand centres a box across the approach axis (the BH-280 closes two
 fingers against one): the same closes ended 4.4 cm right to 1.4 cm left of the axis, most
 within a few millimetres of this, wherever the box stood within 2 cm of the axis."""
+CYLINDER_SEAT_ASIDE = (-0.010, 0.002)
+"""m: where closing fingers hold a cylinder that stood near the palm (`PINCH_MARGIN`)
+across the approach axis: drawn against the palm (its centre a radius ahead of `PALM_FRONT`)
+and into this band, wherever it stood across the hand. Measured in pybullet (static closes and
+a 15 cm lift at every push-grasp preshape, the centre up to 6 cm either side of the axis, 0.5-1
+cm apart, the centre 0-6.8 cm ahead of the seat): of those standing near the palm, 179 soda
+cans and 120 juice bottles, all held, 2.6 mm behind to 0.6 mm beyond that seat along the axis
+and 9.5 mm right to 1.7 mm left of it across."""
+PINCH_MARGIN = 0.01
+CYLINDER_SEAT_REACH = 0.01
+"""m: a cylinder whose centre stands `PINCH_MARGIN` deeper in the hand than the capture
+region asks (`planners.hand2d.grasp_depth` behind the fingertip line), or within
+`CYLINDER_SEAT_REACH` of its seat, is drawn to the seat; further ahead the fingertips may
+pinch it. Measured as above, at every preshape: the first pinched stood 5-10 mm beyond that
+limit (cans 15, 15, 15, 5 and -5 mm behind the line at 0.086-0.235 m; bottles 15, 15, 10, 5
+and 0 mm behind it at 0.100-0.235 m and 15 mm from its seat at 0.275 m)."""
+CYLINDER_TIP_HOLD = (0.058, (-0.044, 0.005))
+"""(m along the axis, m across it): where a cylinder further ahead (`PINCH_MARGIN`) is
+held, from its seat to this far beyond where it stood, across this band. Measured as above:
+of 284 cans and 226 bottles held, 198 and 147 were drawn to the seat, the others pinched, up to
+5.0 and 5.8 cm further out than they stood, and all ended 4.4 cm right to 0.5 cm left of the
+axis. The 81 dropped stood where the planner never closes (within `GRASP_DEPTH` of the line in
+the narrow preshapes, beyond it in the others)."""
 CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
 FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
@@ -91,6 +114,7 @@ class HandIn:
     heading: float
     z: float  # TCP height
     nu: np.ndarray  # (stages, M, 3)
+    profile: PushGraspProfile  # the preshape
 
 
 def hand_in(
@@ -141,7 +165,7 @@ def hand_in(
             swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
             if swept.intersects(avoid):
                 return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
-    return HandIn(push, q_end, end_xy, heading, z, nu)
+    return HandIn(push, q_end, end_xy, heading, z, nu, profile)
 
 
 def pick_up_or_release(
@@ -160,17 +184,24 @@ def pick_up_or_release(
     if not goal.accepts(ctx, name, nu[-1], held):
         return Failure(name, action, f"the object does not end {goal.describe()}")
     if held:
-        turning = closing(ctx, name, moved)
+        turning, in_hand = closing(ctx, name, moved)
         if turned_into(ctx, name, turning, avoid):
             return Failure(name, action, TURNS_INTO_AVOID)
         if not ctx.stays_stable(name, turning):
             return Failure(name, action, CLOSES_OFF_SURFACE)
         if not fingers_close_free(ctx, arm, name, moved, avoid):
             return Failure(name, action, FINGERS_INTO_AVOID)
-        finish, carried_poses = _retrieve(ctx, arm, moved, avoid)
+        lifted = ctx.surface.success == "lift"
+        targets = [] if lifted else pull_targets(ctx, moved.end_xy, moved.heading, moved.z, in_hand)
+        if not (lifted or targets):
+            return Failure(name, action, HELD_BEYOND_STRIP)
+        finish, carried_poses = _retrieve(ctx, arm, moved, in_hand, targets, avoid)
         if finish is None:
             return Failure(name, action, "no collision-free lift or pull out after the grasp")
-        nu = np.concatenate([nu, turning, carried_poses])
+        copies = len(in_hand) // nu.shape[1]  # held poses from every closing stage: S copies
+        nu = np.concatenate(
+            [np.tile(nu, (1, copies, 1)), np.tile(turning, (1, copies, 1)), carried_poses]
+        )
     else:
         finish = release(
             ctx,
@@ -193,6 +224,7 @@ def pick_up_or_release(
 TURNS_INTO_AVOID = "the object turning in the closing hand sweeps into avoidVol"
 CLOSES_OFF_SURFACE = "the closing hand may push the object off the surface"
 FINGERS_INTO_AVOID = "the closing fingers sweep into avoidVol"
+HELD_BEYOND_STRIP = "the object may be held where no pull fits it in the goal strip"
 
 
 def fingers_close_free(
@@ -207,18 +239,23 @@ def fingers_close_free(
     return arm.hand_change_free(moved.q_end, moved.push.hand, meets, avoid)
 
 
-def closing(ctx: PlanningContext, name: str, moved: HandIn) -> np.ndarray:
+def closing(ctx: PlanningContext, name: str, moved: HandIn) -> tuple[np.ndarray, np.ndarray]:
     """Where the object may stand while the fingers close on it, stages (S, M, 3) around its
-    poses (M, 3) where the hand stopped (``moved.nu[-1]``; `closing_poses`)."""
+    poses (M, 3) where the hand stopped (``moved.nu[-1]``; `closing_poses`), and where it may
+    rest once they have closed, (K, 3) (`held_poses`)."""
     hand = Frame2D((float(moved.end_xy[0]), float(moved.end_xy[1])), moved.heading)
-    in_hand = hand.to_frame(moved.nu[-1])
-    return hand.to_world(closing_poses(ctx.beliefs[name].spec.footprint, in_hand))
+    footprint = ctx.beliefs[name].spec.footprint
+    stages = closing_poses(footprint, hand.to_frame(moved.nu[-1]), moved.profile)
+    return hand.to_world(stages), hand.to_world(held_poses(footprint, stages, moved.profile))
 
 
-def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
+def closing_poses(
+    footprint: Footprint, in_hand: np.ndarray, profile: PushGraspProfile
+) -> np.ndarray:
     """Where an object standing at ``in_hand`` (M, 3; hand_base's frame) may stand while the
-    fingers close on it, stages (S, M, 3). A cylinder stays. A box near the palm (`TURN_SEAT`)
-    and within `TURN_BAND` of the approach axis turns toward the axis, through every
+    fingers close on it, stages (S, M, 3). A cylinder is drawn to its seat against the palm
+    (`CYLINDER_SEAT_ASIDE`; the last stage spans the measured band). A box near the palm
+    (`TURN_SEAT`) and within `TURN_BAND` of the approach axis turns toward the axis, through every
     orientation between its own and `TURN_REST`. Measured in pybullet (static grasps, the
     box's nearest point 3, 23, 43, 63 and 83 mm ahead of the palm): at the five preshapes
     0.111-0.275 m, turned 0-50 deg either way, 427 closes with the centre up to 2 cm either
@@ -230,8 +267,9 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     turns, the fingers push it away from the palm (`CLOSING_SHOVE`, `CLOSING_SHOVE_ELSEWHERE`)
     and towards `CLOSING_CENTRE`."""
     in_hand = np.asarray(in_hand, dtype=float)
+    fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     if footprint.shape != "box":
-        return in_hand[None]
+        return _cylinder_closing(footprint, in_hand, profile, fractions)
     off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2  # in [-pi/2, pi/2)
     ahead = np.maximum(in_hand[:, 0] - outline_reach(footprint, off_axis) - PALM_FRONT, 0.0)
     seated = np.zeros(len(in_hand), dtype=bool)
@@ -245,7 +283,6 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     low = np.where(banded, np.minimum(off_axis, rest_low), off_axis)
     anywhere = off_axis + np.pi * (1 - 1 / CLOSING_STAGES)  # the half turn, evenly
     high = np.where(banded, np.maximum(off_axis, rest_high), anywhere)
-    fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     turned = np.repeat(in_hand[None], CLOSING_STAGES, axis=0)
     shove = np.where(
         near_axis, np.interp(np.abs(off_axis), *CLOSING_SHOVE), CLOSING_SHOVE_ELSEWHERE
@@ -254,6 +291,50 @@ def closing_poses(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     turned[..., 1] += fractions * (CLOSING_CENTRE - in_hand[:, 1])
     turned[..., 2] = low + fractions * (high - low)
     return turned
+
+
+def _cylinder_closing(
+    footprint: Footprint, in_hand: np.ndarray, profile: PushGraspProfile, fractions: np.ndarray
+) -> np.ndarray:
+    """`closing_poses` of a cylinder: one near the palm (`PINCH_MARGIN`) goes straight to
+    its seat (the last stage spans `CYLINDER_SEAT_ASIDE`); one further ahead, drawn in or
+    pinched by the fingertips, passes through every part of `CYLINDER_TIP_HOLD` (along the axis
+    in even steps, alternating between the band's sides, which lie closer than the cylinder is
+    wide)."""
+    seat_x = PALM_FRONT + footprint.radius
+    seated = drawn_to_seat(footprint, in_hand, profile)
+    seat = np.column_stack(
+        [np.full(len(in_hand), seat_x), np.linspace(*CYLINDER_SEAT_ASIDE, len(in_hand))]
+    )
+    stages = (1.0 - fractions[..., None]) * in_hand + fractions[..., None] * np.column_stack(
+        [seat, in_hand[:, 2]]
+    )
+    out, sides = CYLINDER_TIP_HOLD
+    fraction = np.linspace(0.0, 1.0, CLOSING_STAGES - 1)[:, None]
+    along = seat_x + fraction * (in_hand[:, 0] + out - seat_x)
+    across = np.resize(sides, CLOSING_STAGES - 1)[:, None]
+    stages[1:, ~seated, 0] = along[:, ~seated]
+    stages[1:, ~seated, 1] = across
+    return stages
+
+
+def drawn_to_seat(
+    footprint: Footprint, in_hand: np.ndarray, profile: PushGraspProfile
+) -> np.ndarray:
+    """Which cylinder poses (M, 3; hand_base's frame) the closing fingers draw to the palm
+    (`PINCH_MARGIN`, `CYLINDER_SEAT_REACH`)."""
+    seat_x = PALM_FRONT + footprint.radius
+    depth = grasp_depth(footprint, profile.aperture) + PINCH_MARGIN
+    return in_hand[:, 0] <= max(profile.grasp_line - depth, seat_x + CYLINDER_SEAT_REACH)
+
+
+def held_poses(footprint: Footprint, stages: np.ndarray, profile: PushGraspProfile) -> np.ndarray:
+    """Where the object may rest in the closed hand, (K, 3; hand_base's frame), from its
+    `closing_poses` stages there: cylinders all drawn to the seat at the last stage; else
+    anywhere along the stages (a box in its turn, a cylinder in `CYLINDER_TIP_HOLD`)."""
+    if footprint.shape != "box" and drawn_to_seat(footprint, stages[0], profile).all():
+        return stages[-1]
+    return stages.reshape(-1, 3)
 
 
 def turned_into(ctx: PlanningContext, name: str, turning: np.ndarray, avoid: Volume) -> bool:
@@ -266,17 +347,17 @@ def turned_into(ctx: PlanningContext, name: str, turning: np.ndarray, avoid: Vol
 
 
 def _retrieve(
-    ctx: PlanningContext, arm: Arm, moved: HandIn, avoid: Volume
+    ctx: PlanningContext,
+    arm: Arm,
+    moved: HandIn,
+    in_hand: np.ndarray,
+    targets: list[np.ndarray],
+    avoid: Volume,
 ) -> tuple[tuple[Segment, ...] | None, np.ndarray]:
-    """Close the fingers, then lift (table) or lift slightly and pull the object into the
-    goal strip (shelf). Returns the segments and the carried object's poses."""
-    q_end, end_xy, heading, z, in_hand = (
-        moved.q_end,
-        moved.end_xy,
-        moved.heading,
-        moved.z,
-        moved.nu[-1],
-    )
+    """Close the fingers, then lift (table) or lift slightly and pull the object, held at
+    ``in_hand`` (`held_poses`), to one of the `pull_targets` in the goal strip (shelf).
+    Returns the segments and the carried object's poses."""
+    q_end, end_xy, heading, z = moved.q_end, moved.end_xy, moved.heading, moved.z
     closed = CLOSED_HAND
     close = Segment("close", q_end[None].copy(), closed)
     free = arm.free_check(avoid, closed)
@@ -289,48 +370,56 @@ def _retrieve(
     raise_ = arm.straight(q_end, hand_pose(end_xy, heading, z + SHELF_LIFT), free)
     if raise_ is None:
         return None, nothing
-    targets = [_pull_target(ctx, end_xy, heading, z, in_hand, turn) for turn in PULL_TURNS]
-    # Straight pulls first (a Cartesian line, milliseconds), then the upright carry to the
-    # first target that has an IK solution.
-    pull = None
-    for target in targets:
-        pull = arm.straight(raise_[-1], target, free)
-        if pull is not None:
-            break
-    if pull is None and ctx.failed_carries < FAILED_CARRIES:
-        for target in targets:
-            if arm.solve(target, free) is not None:
-                pull = carry_upright(arm, raise_[-1], target, free)
-                ctx.failed_carries += pull is None
-                break
+    pull = _pull(ctx, arm, raise_[-1], targets, free)
     if pull is None:
         return None, nothing
     carried = carried_poses(arm, pull, in_hand)
     return (close, Segment("lift", raise_, closed), Segment("pull", pull, closed)), carried
 
 
-def _pull_target(
-    ctx: PlanningContext,
-    end_xy: np.ndarray,
-    heading: float,
-    z: float,
-    in_hand: np.ndarray,
-    turn: float,
-) -> np.ndarray:
-    """The TCP pose that brings the grasped object into the goal strip with the hand turned by
-    ``turn`` about the object's centre: to the strip's middle along x, and along y only as far
-    as needed to bring every sample's centre STRIP_MARGIN inside it (an object grasped near a
-    wall lies beside the strip; pulled straight out it would stay there)."""
+def _pull(
+    ctx: PlanningContext, arm: Arm, q_start: np.ndarray, targets: list[np.ndarray], free: Free
+) -> np.ndarray | None:
+    """Straight pulls first (a Cartesian line, milliseconds), then the upright carry to the
+    first target that has an IK solution."""
+    for target in targets:
+        pull = arm.straight(q_start, target, free)
+        if pull is not None:
+            return pull
+    if ctx.failed_carries < FAILED_CARRIES:
+        for target in targets:
+            if arm.solve(target, free) is not None:
+                pull = carry_upright(arm, q_start, target, free)
+                ctx.failed_carries += pull is None
+                return pull
+    return None
+
+
+def pull_targets(
+    ctx: PlanningContext, end_xy: np.ndarray, heading: float, z: float, in_hand: np.ndarray
+) -> list[np.ndarray]:
+    """The TCP poses that bring the grasped object, held at ``in_hand`` (`held_poses`), into
+    the goal strip, one per turn of the hand about the object's centre (`PULL_TURNS`) that
+    fits every held pose in it: to the strip's middle along x, and along y only as far as
+    needed to bring every pose STRIP_MARGIN inside it (an object grasped near a wall lies
+    beside the strip; pulled straight out it would stay there). A cylinder the fingertips may
+    pinch is held anywhere over 6-10 cm along the hand (`CYLINDER_TIP_HOLD`), as deep as the
+    strip: the grasp that leaves it there cannot promise the strip."""
     centre = in_hand[:, :2].mean(axis=0)
-    rotation = rotation_2d(turn)
-    turned = centre + (in_hand[:, :2] - centre) @ rotation.T
     (x0, x1), (y0, y1) = ctx.goal_region
-    ys = turned[:, 1]
-    into = max(y0 + STRIP_MARGIN - float(ys.min()), 0.0)
-    dy = into - max(float(ys.max()) - (y1 - STRIP_MARGIN), 0.0)
-    shift = np.array([(x0 + x1) / 2 - float(turned[:, 0].mean()), dy])
-    hand_xy = centre + shift + rotation @ (np.asarray(end_xy) - centre)
-    return hand_pose(hand_xy, heading + turn, z + SHELF_LIFT)
+    targets = []
+    for turn in PULL_TURNS:
+        rotation = rotation_2d(turn)
+        turned = centre + (in_hand[:, :2] - centre) @ rotation.T
+        xs, ys = turned[:, 0], turned[:, 1]
+        if np.ptp(xs) >= x1 - x0 or np.ptp(ys) >= y1 - y0 - 2 * STRIP_MARGIN:
+            continue
+        into = max(y0 + STRIP_MARGIN - float(ys.min()), 0.0)
+        dy = into - max(float(ys.max()) - (y1 - STRIP_MARGIN), 0.0)
+        shift = np.array([(x0 + x1 - float(xs.min()) - float(xs.max())) / 2, dy])
+        hand_xy = centre + shift + rotation @ (np.asarray(end_xy) - centre)
+        targets.append(hand_pose(hand_xy, heading + turn, z + SHELF_LIFT))
+    return targets
 
 
 def carry_upright(

@@ -55,14 +55,13 @@ def place(
     why = unfit(ctx.beliefs[name].spec, pushed=True, lifted=True)
     if why:  # the carry lifts it: the 5 kg dumbbell is pushed only
         return Failure(name, ACTION, why)
-    turning = closing(ctx, name, moved)
+    turning, in_hand = closing(ctx, name, moved)
     if turned_into(ctx, name, turning, avoid):
         return Failure(name, ACTION, TURNS_INTO_AVOID)
     if not ctx.stays_stable(name, turning):
         return Failure(name, ACTION, CLOSES_OFF_SURFACE)
     if not fingers_close_free(ctx, arm, name, moved, avoid):
         return Failure(name, ACTION, FINGERS_INTO_AVOID)
-    in_hand = turning.reshape(-1, 3)  # every pose the held object may have
     closed = HandCommand(0.0, GRASP_CLOSURE)
     free = arm.free_check(avoid, closed)
     lift_to = hand_pose(moved.end_xy, moved.heading, moved.z + CARRY_LIFT)
@@ -76,8 +75,9 @@ def place(
             continue
         segments, volume = carried
         grasp = Segment("close", moved.q_end[None].copy(), closed)
-        pushed = np.tile(moved.nu, (1, len(turning), 1))
-        nu = np.concatenate([pushed, in_hand[None], placed[None]])
+        copies = len(in_hand) // moved.nu.shape[1]  # held poses from every closing stage: S copies
+        stages = [np.tile(moved.nu, (1, copies, 1)), np.tile(turning, (1, copies, 1))]
+        nu = np.concatenate([*stages, placed[None]])
         trajectory = Trajectory((moved.push, grasp, Segment("lift", lifted, closed), *segments))
         return ActionResult(ACTION, name, trajectory, nu, False, details, volume)
     return Failure(name, ACTION, "no reachable placement out of the NGR")
