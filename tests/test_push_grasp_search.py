@@ -26,7 +26,7 @@ from planners.actions.hand_in import (
     CYLINDER_SEAT_ASIDE,
     CYLINDER_TIP_HOLD,
     OUT_OF_REACH,
-    PINCH_MARGIN,
+    PINCH_ONSET,
     SHELF_LIFT,
     STRIP_MARGIN,
     TURN_REST,
@@ -603,7 +603,8 @@ def test_closing_fingers_draw_a_cylinder_near_the_palm_to_its_seat(kind: str) ->
     assert np.ptp(stages[-1, :, 1]) == pytest.approx(high - low)  # the measured band, spanned
     assert np.array_equal(stages[:, :, 2], np.broadcast_to(near[:, 2], stages.shape[:2]))
     assert np.array_equal(held_poses(footprint, stages, STRAIGHT), stages[-1])
-    ahead = np.array([[STRAIGHT.grasp_line - PINCH_MARGIN + 0.005, 0.03, 0.0]])
+    onset = STRAIGHT.grasp_line + float(np.interp(STRAIGHT.aperture, *PINCH_ONSET))
+    ahead = np.array([[onset + 0.005, 0.03, 0.0]])
     pinched = closing_poses(footprint, ahead, STRAIGHT)[:, 0]
     out, (right, left) = CYLINDER_TIP_HOLD
     assert pinched[1:, 0].min() == pytest.approx(seat_x)  # drawn in, or

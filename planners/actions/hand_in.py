@@ -30,7 +30,7 @@ from planners.actions.grasp_geometry import (
 )
 from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
-from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture, grasp_depth
+from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 OUT_OF_REACH = "the reachability map rules out the hand on its way in"
@@ -65,29 +65,28 @@ CLOSING_CENTRE = -0.027
 """m: where a closing hand centres a box across the approach axis (the BH-280 closes two
 fingers against one): the same closes ended 4.4 cm right to 1.4 cm left of the axis, most
 within a few millimetres of this, wherever the box stood within 2 cm of the axis."""
-CYLINDER_SEAT_ASIDE = (-0.010, 0.002)
-"""m: where closing fingers hold a cylinder that stood near the palm (`PINCH_MARGIN`)
-across the approach axis: drawn against the palm (its centre a radius ahead of `PALM_FRONT`)
-and into this band, wherever it stood across the hand. Measured in pybullet (static closes and
-a 15 cm lift at every push-grasp preshape, the centre up to 6 cm either side of the axis, 0.5-1
-cm apart, the centre 0-6.8 cm ahead of the seat): of those standing near the palm, 179 soda
-cans and 120 juice bottles, all held, 2.6 mm behind to 0.6 mm beyond that seat along the axis
-and 9.5 mm right to 1.7 mm left of it across."""
-PINCH_MARGIN = 0.01
-CYLINDER_SEAT_REACH = 0.01
-"""m: a cylinder whose centre stands `PINCH_MARGIN` deeper in the hand than the capture
-region asks (`planners.hand2d.grasp_depth` behind the fingertip line), or within
-`CYLINDER_SEAT_REACH` of its seat, is drawn to the seat; further ahead the fingertips may
-pinch it. Measured as above, at every preshape: the first pinched stood 5-10 mm beyond that
-limit (cans 15, 15, 15, 5 and -5 mm behind the line at 0.086-0.235 m; bottles 15, 15, 10, 5
-and 0 mm behind it at 0.100-0.235 m and 15 mm from its seat at 0.275 m)."""
+CYLINDER_SEAT_ASIDE = (-0.010, 0.003)
+"""m: where closing fingers hold a cylinder that stood short of `PINCH_ONSET` across the
+approach axis: drawn against the palm (its centre a radius ahead of `PALM_FRONT`) and into
+this band, wherever it stood across the hand. Measured in pybullet (static closes and a 15
+cm lift at every push-grasp preshape, the centre up to 6 cm either side of the axis and from
+the palm to 1 cm beyond the fingertip line, 0.5-1 cm apart): 291 soda cans and 202 juice
+bottles, all held, 2.6 mm behind to 1.2 mm beyond that seat along the axis and 9.6 mm right
+to 2.4 mm left of it across."""
+PINCH_ONSET = ((0.156, 0.192, 0.235, 0.275), (-0.020, -0.010, -0.005, 0.005))
+"""(preshape apertures m, m along the axis from the fingertip line): a cylinder standing
+beyond this (interpolated between apertures) may be pinched by the fingertips instead of
+drawn to the palm. Measured as above: the first pinched can or bottle stood 15 mm behind the
+line in the narrow preshapes (0.086-0.156 m), 5 mm behind it in the straight one (0.192 m),
+at it in the 0.235 m V and 10 mm beyond it in the 0.275 m V; the onset is the grid row before
+(5 mm short), where every one was drawn in."""
 CYLINDER_TIP_HOLD = (0.058, (-0.044, 0.005))
-"""(m along the axis, m across it): where a cylinder further ahead (`PINCH_MARGIN`) is
-held, from its seat to this far beyond where it stood, across this band. Measured as above:
-of 284 cans and 226 bottles held, 198 and 147 were drawn to the seat, the others pinched, up to
-5.0 and 5.8 cm further out than they stood, and all ended 4.4 cm right to 0.5 cm left of the
-axis. The 81 dropped stood where the planner never closes (within `GRASP_DEPTH` of the line in
-the narrow preshapes, beyond it in the others)."""
+"""(m along the axis, m across it): where a cylinder standing beyond `PINCH_ONSET` is held,
+from its seat to this far beyond where it stood, across this band. Measured as above: of 172
+cans and 144 bottles held, 86 and 65 were drawn to the seat, the others pinched, up to 5.0 and
+5.8 cm further out than they stood, and all ended 4.4 cm right to 0.5 cm left of the axis. The
+81 dropped stood where the planner never closes (within `GRASP_DEPTH` of the line in the
+narrow preshapes, beyond it in the others)."""
 CLOSED_HAND = HandCommand(0.0, GRASP_CLOSURE)
 FLAT_HAND = HandCommand(0.0, OPEN_FLAT)
 RETREAT = 0.06  # m the open hand backs away from a pushed obstacle
@@ -296,13 +295,13 @@ def closing_poses(
 def _cylinder_closing(
     footprint: Footprint, in_hand: np.ndarray, profile: PushGraspProfile, fractions: np.ndarray
 ) -> np.ndarray:
-    """`closing_poses` of a cylinder: one near the palm (`PINCH_MARGIN`) goes straight to
+    """`closing_poses` of a cylinder: one short of `PINCH_ONSET` goes straight to
     its seat (the last stage spans `CYLINDER_SEAT_ASIDE`); one further ahead, drawn in or
     pinched by the fingertips, passes through every part of `CYLINDER_TIP_HOLD` (along the axis
     in even steps, alternating between the band's sides, which lie closer than the cylinder is
     wide)."""
     seat_x = PALM_FRONT + footprint.radius
-    seated = drawn_to_seat(footprint, in_hand, profile)
+    seated = drawn_to_seat(in_hand, profile)
     seat = np.column_stack(
         [np.full(len(in_hand), seat_x), np.linspace(*CYLINDER_SEAT_ASIDE, len(in_hand))]
     )
@@ -318,21 +317,18 @@ def _cylinder_closing(
     return stages
 
 
-def drawn_to_seat(
-    footprint: Footprint, in_hand: np.ndarray, profile: PushGraspProfile
-) -> np.ndarray:
-    """Which cylinder poses (M, 3; hand_base's frame) the closing fingers draw to the palm
-    (`PINCH_MARGIN`, `CYLINDER_SEAT_REACH`)."""
-    seat_x = PALM_FRONT + footprint.radius
-    depth = grasp_depth(footprint, profile.aperture) + PINCH_MARGIN
-    return in_hand[:, 0] <= max(profile.grasp_line - depth, seat_x + CYLINDER_SEAT_REACH)
+def drawn_to_seat(in_hand: np.ndarray, profile: PushGraspProfile) -> np.ndarray:
+    """Which cylinder poses (M, 3; hand_base's frame) the closing fingers draw to the palm:
+    those short of `PINCH_ONSET` (the same for the can and the bottle)."""
+    onset = profile.grasp_line + float(np.interp(profile.aperture, *PINCH_ONSET))
+    return in_hand[:, 0] <= onset
 
 
 def held_poses(footprint: Footprint, stages: np.ndarray, profile: PushGraspProfile) -> np.ndarray:
     """Where the object may rest in the closed hand, (K, 3; hand_base's frame), from its
     `closing_poses` stages there: cylinders all drawn to the seat at the last stage; else
     anywhere along the stages (a box in its turn, a cylinder in `CYLINDER_TIP_HOLD`)."""
-    if footprint.shape != "box" and drawn_to_seat(footprint, stages[0], profile).all():
+    if footprint.shape != "box" and drawn_to_seat(stages[0], profile).all():
         return stages[-1]
     return stages.reshape(-1, 3)
 
