@@ -197,10 +197,7 @@ def pick_up_or_release(
         finish, carried_poses = _retrieve(ctx, arm, moved, in_hand, targets, avoid)
         if finish is None:
             return Failure(name, action, "no collision-free lift or pull out after the grasp")
-        copies = len(in_hand) // nu.shape[1]  # held poses from every closing stage: S copies
-        nu = np.concatenate(
-            [np.tile(nu, (1, copies, 1)), np.tile(turning, (1, copies, 1)), carried_poses]
-        )
+        nu = np.concatenate([*through_close(nu, turning, in_hand), carried_poses])
     else:
         finish = release(
             ctx,
@@ -309,8 +306,8 @@ def _cylinder_closing(
         [seat, in_hand[:, 2]]
     )
     out, sides = CYLINDER_TIP_HOLD
-    fraction = np.linspace(0.0, 1.0, CLOSING_STAGES - 1)[:, None]
-    along = seat_x + fraction * (in_hand[:, 0] + out - seat_x)
+    spread = np.linspace(0.0, 1.0, CLOSING_STAGES - 1)[:, None]  # stages 1.. over the hold
+    along = seat_x + spread * (in_hand[:, 0] + out - seat_x)
     across = np.resize(sides, CLOSING_STAGES - 1)[:, None]
     stages[1:, ~seated, 0] = along[:, ~seated]
     stages[1:, ~seated, 1] = across
@@ -331,6 +328,14 @@ def held_poses(footprint: Footprint, stages: np.ndarray, profile: PushGraspProfi
     if footprint.shape != "box" and drawn_to_seat(stages[0], profile).all():
         return stages[-1]
     return stages.reshape(-1, 3)
+
+
+def through_close(nu: np.ndarray, turning: np.ndarray, in_hand: np.ndarray) -> list[np.ndarray]:
+    """nu_o up to the hand closing: the push's stages and the `closing` stages, each with as
+    many poses as the held ones (``in_hand``, `held_poses`: M, or S x M when they span every
+    closing stage), so that the stages after the close stack with them."""
+    copies = len(in_hand) // nu.shape[1]
+    return [np.tile(nu, (1, copies, 1)), np.tile(turning, (1, copies, 1))]
 
 
 def turned_into(ctx: PlanningContext, name: str, turning: np.ndarray, avoid: Volume) -> bool:

@@ -27,6 +27,7 @@ from planners.actions.hand_in import (
     closing,
     fingers_close_free,
     release,
+    through_close,
     turned_into,
 )
 from planners.actions.results import ActionResult, Failure, unfit
@@ -75,9 +76,7 @@ def place(
             continue
         segments, volume = carried
         grasp = Segment("close", moved.q_end[None].copy(), closed)
-        copies = len(in_hand) // moved.nu.shape[1]  # held poses from every closing stage: S copies
-        stages = [np.tile(moved.nu, (1, copies, 1)), np.tile(turning, (1, copies, 1))]
-        nu = np.concatenate([*stages, placed[None]])
+        nu = np.concatenate([*through_close(moved.nu, turning, in_hand), placed[None]])
         trajectory = Trajectory((moved.push, grasp, Segment("lift", lifted, closed), *segments))
         return ActionResult(ACTION, name, trajectory, nu, False, details, volume)
     return Failure(name, ACTION, "no reachable placement out of the NGR")
