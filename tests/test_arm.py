@@ -3,6 +3,7 @@ GoTo that backs the hand out of a narrow pocket."""
 
 from __future__ import annotations
 
+import fcl
 import numpy as np
 import pytest
 
@@ -10,7 +11,7 @@ from clutter_gym.model.collision import Volume, interpolate
 from clutter_gym.model.herb import RIGHT_ARM_START, HandCommand
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.world import SHELF, TABLE, Surface
-from planners.actions.arm import ARM_CHECK_STEP, ELBOW_RADIUS, Arm
+from planners.actions.arm import ARM_CHECK_STEP, ELBOW_RADIUS, END_ZONE, GOTO_CLEARANCE, Arm
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 
 #: Hands in the shelf, each (hand_base x, y, heading): poses whose IK solution nearest the home
@@ -68,7 +69,15 @@ def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() ->
         out = arm.kinematics.fk_tcp(q)[0, 3] < front - 0.03
         return bool(out or np.min(np.max(np.abs(tube - q), axis=1)) < 0.03)
 
-    arm.free_check = lambda obstacles, hand, exact=False: free  # type: ignore[method-assign]
+    class Pocket:
+        """The check GoTo asks: free above, and clear of objects (there are none)."""
+
+        __call__ = staticmethod(free)
+
+        def clear(self, q: np.ndarray) -> bool:
+            return True
+
+    arm.free_check = lambda obstacles, hand, exact=False: Pocket()  # type: ignore[method-assign]
     start = RIGHT_ARM_START
     plain, reason = arm.plan_path(start, goal, free)
     assert plain is None and reason.startswith("no path found"), reason
@@ -82,3 +91,69 @@ def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() ->
     direction = tcp[-1] - tcp[0]
     off_line = np.cross(tcp - tcp[0], direction / np.linalg.norm(direction))
     assert np.max(np.linalg.norm(off_line, axis=1)) < 1e-3
+
+
+def distance_to(arm: Arm, obstacles: Volume, q: np.ndarray) -> float:
+    """fcl's distance from the real arm and hand at q to the nearest part of ``obstacles``."""
+    arm.robot.place(q, HAND)
+    return min(
+        fcl.distance(link, part, fcl.DistanceRequest(), fcl.DistanceResult())
+        for link in arm.robot._objects
+        for part, _, _ in obstacles.parts
+    )
+
+
+@pytest.fixture(scope="module")
+def near_block() -> tuple[Arm, Volume, np.ndarray]:
+    """A straight joint line that carries the hand 25 cm sideways over the table, and a 3 cm
+    block under the hand's middle configuration, raised until it is 5 mm from the arm."""
+    arm = make_arm(TABLE)
+    start = arm.solve(hand_pose(np.array([0.70, -0.50]), 0.0, TABLE.top_z + 0.15), lambda q: True)
+    assert start is not None
+    side = hand_pose(np.array([0.70, -0.25]), 0.0, TABLE.top_z + 0.15)
+    across = arm.straight(start, side, lambda q: True)
+    assert across is not None
+    line = interpolate(across[[0, -1]], ARM_CHECK_STEP / 2)
+    below = arm.kinematics.fk_tcp(line[len(line) // 2])[:3, 3]
+
+    def block(z: float) -> Volume:
+        return Volume.of_box("block", np.array([*below[:2], z]), (0.03, 0.03, 0.03), 0.0)
+
+    low, high = TABLE.top_z, float(below[2]) - 0.03
+    for _ in range(30):  # bisect the block's height for 5 mm to the nearest configuration
+        z = (low + high) / 2
+        nearest = min(distance_to(arm, block(z), q) for q in line)
+        low, high = (z, high) if nearest > 0.005 else (low, z)
+    return arm, block(low), line
+
+
+def test_goto_keeps_its_clearance_from_objects_a_straight_line_passes_nearer(
+    near_block: tuple[Arm, Volume, np.ndarray],
+) -> None:
+    """The straight joint line is free but passes the block nearer than `GOTO_CLEARANCE` (a
+    real arm lagging its command grazes it): GoTo plans around, every configuration at least
+    `GOTO_CLEARANCE` from the block by fcl's distance."""
+    arm, block, line = near_block
+    assert all(arm.free_check(block, HAND)(q) for q in line)
+    assert 0.0 < min(distance_to(arm, block, q) for q in line) < GOTO_CLEARANCE
+    assert min(distance_to(arm, block, q) for q in line[[0, -1]]) > GOTO_CLEARANCE
+    path, reason = arm.goto(line[0], line[-1], block, HAND)
+    assert path is not None, reason
+    assert min(distance_to(arm, block, q) for q in interpolate(path, ARM_CHECK_STEP)) >= (
+        GOTO_CLEARANCE - 1e-6
+    )
+
+
+def test_goto_leaves_an_end_nearer_than_its_clearance(
+    near_block: tuple[Arm, Volume, np.ndarray],
+) -> None:
+    """A goal nearer the block than `GOTO_CLEARANCE` (a hand about to push it) is reached;
+    the path comes that near only within `END_ZONE` of it."""
+    arm, block, line = near_block
+    goal = line[int(np.argmin([distance_to(arm, block, q) for q in line]))]
+    path, reason = arm.goto(line[0], goal, block, HAND)
+    assert path is not None, reason
+    np.testing.assert_allclose(path[-1], goal)
+    for q in interpolate(path, ARM_CHECK_STEP):
+        if np.max(np.abs(q - goal)) > END_ZONE:
+            assert distance_to(arm, block, q) >= GOTO_CLEARANCE - 1e-6

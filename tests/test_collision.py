@@ -456,3 +456,37 @@ def test_clear_above_is_the_lowest_over_each_box_above_the_height() -> None:
                 assert volume.clear_above(boxes, height).tolist() == expected
                 answers += expected
     assert 0.2 < np.mean(answers) < 0.8  # both answers are exercised
+
+
+def test_a_grown_arm_is_clear_only_of_objects_at_least_its_margin_away() -> None:
+    """`clearance_checker` against fcl's own distances between the real primitives and the
+    objects: clear means at least the margin away; every box or cylinder at least margin * sqrt(3)
+    away (a grown box's corner) is clear; nearer objects are found."""
+    kin = ArmKinematics("right")
+    geometry = ArmGeometry()
+    margin = 0.01
+    real, grown = RobotCollision(kin, geometry), RobotCollision(kin, geometry, margin)
+    rng = np.random.default_rng(3)
+    outcomes = {"near": 0, "far": 0}
+    for _ in range(120):
+        heading = rng.uniform(-0.6, 0.6)
+        target = tcp_target(0.80, -0.25, TABLE.top_z + 0.10, (np.cos(heading), np.sin(heading)))
+        q = solve(kin, target)
+        hand = HandCommand(0.0, float(rng.uniform(0.0, 0.6)))
+        xy = target[:2, 3] + rng.uniform(-0.14, 0.14, 2)
+        name = str(rng.choice(["soda_can", "poptart_box"]))
+        obstacles = Volume.of_object(name, OBJECTS[name], np.array([[*xy, 0.3]]), TABLE.top_z)
+        checker = CollisionChecker(CollisionWorld.around(TABLE, obstacles), real)
+        clear = checker.clearance_checker(grown, hand)(q)
+        real.place(q, hand)
+        distance = min(
+            fcl.distance(arm, part, fcl.DistanceRequest(), fcl.DistanceResult())
+            for arm in real._objects
+            for part, _, _ in obstacles.parts
+        )
+        if clear:
+            assert distance >= margin - 1e-6
+        if distance >= margin * np.sqrt(3.0) + 1e-6:
+            assert clear
+        outcomes["near" if distance < margin else "far"] += 1
+    assert min(outcomes.values()) >= 10  # both sides of the margin were tried

@@ -53,12 +53,14 @@ SURFACE_PADDING = 0.015
 about a centimetre, and the task fails the moment the robot touches the surface."""
 
 
-def _fcl_geometry(shape: Shape) -> fcl.CollisionGeometry:
+def _fcl_geometry(shape: Shape, margin: float = 0.0) -> fcl.CollisionGeometry:
+    """The shape in fcl, grown by ``margin`` on every face (it then holds every point within
+    ``margin`` of the shape)."""
     if shape.kind == "box":
-        return fcl.Box(*shape.dims)
+        return fcl.Box(*(d + 2.0 * margin for d in shape.dims))
     if shape.kind == "cylinder":
-        return fcl.Cylinder(shape.dims[0], shape.dims[1])
-    return fcl.Sphere(shape.dims[0])
+        return fcl.Cylinder(shape.dims[0] + margin, shape.dims[1] + 2.0 * margin)
+    return fcl.Sphere(shape.dims[0] + margin)
 
 
 def _object_transforms(spec: ObjectSpec, pose: Pose, surface_z: float) -> list[fcl.Transform]:
@@ -626,12 +628,17 @@ class CollisionWorld:
 
 
 class RobotCollision:
-    """The arm and hand primitives as fcl objects, placed at a configuration on demand."""
+    """The arm and hand primitives as fcl objects, placed at a configuration on demand; with a
+    ``margin`` each primitive grown by that much, so that an arm clear of a volume keeps at
+    least ``margin`` from it (`CollisionChecker.clearance_checker`)."""
 
-    def __init__(self, kinematics: ArmKinematics, geometry: ArmGeometry) -> None:
+    def __init__(
+        self, kinematics: ArmKinematics, geometry: ArmGeometry, margin: float = 0.0
+    ) -> None:
         self.kinematics = kinematics
         self.geometry = geometry
-        self.geometries = [_fcl_geometry(p.shape) for p in geometry.primitives]
+        self.margin = margin
+        self.geometries = [_fcl_geometry(p.shape, margin) for p in geometry.primitives]
         self._objects = [fcl.CollisionObject(g, fcl.Transform()) for g in self.geometries]
         self.manager = _manager(self._objects)
 
@@ -747,6 +754,19 @@ class CollisionChecker:
             if _collide(links, self.world.surface_manager, _Query()).hits:
                 return False
             return not self._objects_hit(links, frozenset())
+
+        return clear
+
+    def clearance_checker(
+        self, grown: RobotCollision, hand: HandCommand = OPEN_HAND
+    ) -> Callable[[np.ndarray], bool]:
+        """Whether the arm at q keeps ``grown.margin`` from every object: ``grown`` (this
+        checker's robot with grown primitives) misses them. Surface and self-collision are
+        `checker`'s."""
+
+        def clear(q: np.ndarray) -> bool:
+            grown.place(q, hand)
+            return not self._objects_hit(grown.manager, frozenset())
 
         return clear
 

@@ -40,6 +40,15 @@ CHECKS_KEPT = 256
 ELBOW_RADIUS = 0.055
 """m: the radius of the WAM's elbow (the wam4 joint cylinder); an elbow centre this near a
 surface's interior stands in its opening (`Arm._select`)."""
+GOTO_CLEARANCE = 0.01
+"""m a GoTo path keeps from every object, but near an end that stands closer (`Arm.goto`): a
+path simplified onto the objects' surfaces grazes them once the real arm lags its command by a
+few mrad or a placed object stands a few mm off its planned pose (a finger grazing a placed
+can's rim toppled it)."""
+END_ZONE = 0.1
+"""rad (every joint) around a GoTo end nearer than `GOTO_CLEARANCE` to an object within which
+the path may stay that near: the arm leaves such an end (a hand beside what it released or is
+about to push) before the clearance holds."""
 BACK_OUT = (0.25, 0.15)
 """m the hand backs straight out of a narrow pocket before GoTo plans again (`Arm.goto`),
 longest first."""
@@ -55,9 +64,16 @@ class ArmCheck:
     a hand command clear of the surface, itself and the obstacles. `hand_clear` checks only the
     links rigid with the TCP at a TCP pose, where every IK solution of the pose puts them."""
 
-    def __init__(self, checker: CollisionChecker, hand: HandCommand, stats: PlanStats) -> None:
+    def __init__(
+        self,
+        checker: CollisionChecker,
+        hand: HandCommand,
+        stats: PlanStats,
+        grown: RobotCollision,
+    ) -> None:
         self._free = checker.checker(hand)
         self._hand = checker.hand_checker(hand)
+        self._clear = checker.clearance_checker(grown, hand)
         self._stats = stats
         #: `Arm.solve`'s answers under this check, by target pose.
         self.solved: dict[bytes, np.ndarray | None] = {}
@@ -69,6 +85,11 @@ class ArmCheck:
     def hand_clear(self, tcp_pose: np.ndarray) -> bool:
         self._stats.collision_checks += 1
         return self._hand(tcp_pose)
+
+    def clear(self, q: np.ndarray) -> bool:
+        """Whether the arm at q keeps `GOTO_CLEARANCE` from the obstacles."""
+        self._stats.collision_checks += 1
+        return self._clear(q)
 
 
 class Arm:
@@ -89,6 +110,7 @@ class Arm:
         self.budget = budget
         self.kinematics = ArmKinematics("right")
         self.robot = RobotCollision(self.kinematics, ArmGeometry())
+        self.grown = RobotCollision(self.kinematics, ArmGeometry(), GOTO_CLEARANCE)
         self.reach = shipped_map(surface.name)
         # The planner asks for the same poses again and again with other obstacles: each
         # pose's analytic IK solutions (seeded by the home pose) are computed once.
@@ -105,7 +127,7 @@ class Arm:
         return self.kinematics.shoulder if origin is None else np.asarray(origin, dtype=float)
 
     # -- collision ------------------------------------------------------------------------------
-    def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> Free:
+    def free_check(self, obstacles: Volume, hand: HandCommand, exact: bool = False) -> ArmCheck:
         """Counted predicate: the arm at q with ``hand`` is clear of surface, itself and
         ``obstacles``, the union of every object's uncertainty samples (each object's convex
         hull first, the samples themselves only where a hull is hit; with ``exact`` the samples
@@ -116,7 +138,8 @@ class Arm:
         kept = self._checks.pop(key, None)  # re-inserted last: the least recently used go
         if kept is None:
             world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
-            kept = (obstacles, ArmCheck(CollisionChecker(world, self.robot), hand, self.stats))
+            check = ArmCheck(CollisionChecker(world, self.robot), hand, self.stats, self.grown)
+            kept = (obstacles, check)
             if len(self._checks) >= CHECKS_KEPT:
                 del self._checks[next(iter(self._checks))]
         # The volume is kept with its check: its id stays its own while the entry lives.
@@ -232,8 +255,10 @@ class Arm:
         shelf's walls: seven approaches one shelf scene lost found no path with 50000
         evaluations either, and from none could the hand move 5 cm toward the robot). A real
         hand leaves such a place the way it came: straight. Each end backs its hand
-        out (`_backed_out`) and GoTo plans once more between the backed-out configurations."""
-        free = self.free_check(obstacles, hand)
+        out (`_backed_out`) and GoTo plans once more between the backed-out configurations.
+        The path keeps `GOTO_CLEARANCE` from the obstacles but within `END_ZONE` of an end
+        nearer than that (`_cleared`)."""
+        free = self._cleared(self.free_check(obstacles, hand), (start, goal))
         path, reason = self.plan_path(start, goal, free)
         if path is not None or not reason.startswith(NO_PATH):
             return path, reason
@@ -251,6 +276,19 @@ class Arm:
         if not all(free(q) for q in interpolate(path, ARM_CHECK_STEP)):
             return None, reason
         return path, ""
+
+    @staticmethod
+    def _cleared(check: ArmCheck, ends: tuple[np.ndarray, ...]) -> Free:
+        """``check``, and `GOTO_CLEARANCE` from the obstacles except within `END_ZONE` of an
+        end that stands nearer."""
+        near = [np.asarray(e, dtype=float) for e in ends if not check.clear(e)]
+
+        def free(q: np.ndarray) -> bool:
+            if not check(q):
+                return False
+            return check.clear(q) or any(np.max(np.abs(q - e)) <= END_ZONE for e in near)
+
+        return free
 
     def _backed_out(self, q: np.ndarray, free: Free) -> np.ndarray | None:
         """A straight hand motion from q out of where it stands, or None: toward the shoulder
