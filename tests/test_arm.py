@@ -7,7 +7,8 @@ import fcl
 import numpy as np
 import pytest
 
-from clutter_gym.model.collision import Volume, interpolate
+from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.collision import RobotCollision, Volume, interpolate
 from clutter_gym.model.herb import RIGHT_ARM_START, HandCommand
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.world import SHELF, TABLE, Surface
@@ -72,7 +73,7 @@ def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() ->
     class Pocket:
         """The check GoTo asks: free above, and clear of objects (there are none)."""
 
-        __call__ = staticmethod(free)
+        __call__ = free_of_surface_and_self = staticmethod(free)
 
         def clear(self, q: np.ndarray) -> bool:
             return True
@@ -157,3 +158,17 @@ def test_goto_leaves_an_end_nearer_than_its_clearance(
     for q in interpolate(path, ARM_CHECK_STEP):
         if np.max(np.abs(q - goal)) > END_ZONE:
             assert distance_to(arm, block, q) >= GOTO_CLEARANCE - 1e-6
+
+
+def test_goto_comes_nearer_where_no_path_keeps_its_clearance(
+    near_block: tuple[Arm, Volume, np.ndarray],
+) -> None:
+    """With a clearance nothing keeps (every primitive grown by 0.5 m), GoTo still finds the
+    path the plain check allows (a passage between objects narrower than the clearance)."""
+    _, block, line = near_block
+    arm = make_arm(TABLE)
+    arm.grown = RobotCollision(arm.kinematics, ArmGeometry(), margin=0.5)
+    assert not arm.free_check(block, HAND).clear(line[len(line) // 2])
+    path, reason = arm.goto(line[0], line[-1], block, HAND)
+    assert path is not None, reason
+    assert all(arm.free_check(block, HAND)(q) for q in interpolate(path, ARM_CHECK_STEP))

@@ -74,6 +74,7 @@ class ArmCheck:
         self._free = checker.checker(hand)
         self._hand = checker.hand_checker(hand)
         self._clear = checker.clearance_checker(grown, hand)
+        self._unloaded = checker.checker(hand, objects=False)
         self._stats = stats
         #: `Arm.solve`'s answers under this check, by target pose.
         self.solved: dict[bytes, np.ndarray | None] = {}
@@ -90,6 +91,11 @@ class ArmCheck:
         """Whether the arm at q keeps `GOTO_CLEARANCE` from the obstacles."""
         self._stats.collision_checks += 1
         return self._clear(q)
+
+    def free_of_surface_and_self(self, q: np.ndarray) -> bool:
+        """The check without the obstacles (for a q already `clear` of them)."""
+        self._stats.collision_checks += 1
+        return self._unloaded(q)
 
 
 class Arm:
@@ -257,8 +263,12 @@ class Arm:
         hand leaves such a place the way it came: straight. Each end backs its hand
         out (`_backed_out`) and GoTo plans once more between the backed-out configurations.
         The path keeps `GOTO_CLEARANCE` from the obstacles but within `END_ZONE` of an end
-        nearer than that (`_cleared`)."""
-        free = self._cleared(self.free_check(obstacles, hand), (start, goal))
+        nearer than that (`_cleared`) where it can; where no such path is found (a passage
+        between objects narrower than the hand and twice the clearance), it may come nearer."""
+        free = self.free_check(obstacles, hand)
+        path, _ = self.plan_path(start, goal, self._cleared(free, (start, goal)))
+        if path is not None:
+            return path, ""
         path, reason = self.plan_path(start, goal, free)
         if path is not None or not reason.startswith(NO_PATH):
             return path, reason
@@ -284,9 +294,9 @@ class Arm:
         near = [np.asarray(e, dtype=float) for e in ends if not check.clear(e)]
 
         def free(q: np.ndarray) -> bool:
-            if not check(q):
-                return False
-            return check.clear(q) or any(np.max(np.abs(q - e)) <= END_ZONE for e in near)
+            if check.clear(q):  # the grown arm misses the obstacles, so the arm does
+                return check.free_of_surface_and_self(q)
+            return any(np.max(np.abs(q - e)) <= END_ZONE for e in near) and check(q)
 
         return free
 
