@@ -657,6 +657,7 @@ class RobotCollision:
             if p.link in HAND_RIGID_LINKS
         ]
         self._placed: tuple[bytes, HandCommand] | None = None
+        self._pairs_placed: tuple[bytes, HandCommand] | None = None
 
     def place(self, q: np.ndarray, hand: HandCommand) -> None:
         """Move the primitives to configuration q and hand command; no-op if already there."""
@@ -672,9 +673,6 @@ class RobotCollision:
             obj.setRotation(rotation)
             obj.setTranslation(origin)
         self.manager.update()
-        for a, b in self._self_pairs:
-            a.update()
-            b.update()
         self._placed = key
 
     def place_hand(self, tcp_pose: np.ndarray, hand: HandCommand) -> None:
@@ -695,6 +693,13 @@ class RobotCollision:
     def self_collision(self, q: np.ndarray, hand: HandCommand = OPEN_HAND) -> bool:
         """Whether two links of `SELF_COLLISION_GROUPS` penetrate at q."""
         self.place(q, hand)
+        # The groups' trees are refitted here, not in `place`: most placements are refused by
+        # the surface or an object, or belong to a grown robot that never asks this.
+        if self._pairs_placed != self._placed:
+            for a, b in self._self_pairs:
+                a.update()
+                b.update()
+            self._pairs_placed = self._placed
         return any(_collide(a, b, _Query()).hits for a, b in self._self_pairs)
 
 
