@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from clutter_gym.model import kinematics
+from clutter_gym.model import collision
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.trajectory import Segment, Trajectory
@@ -173,7 +173,7 @@ def plan_retrieval(
     if q0.shape != (7,) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start_arm: {start_arm!r}; expected 7 finite joint angles")
     rng = np.random.default_rng(settings.seed)  # the TSR's draws
-    kinematics.warm_up()  # the compiled kernels, before the budget starts
+    collision.warm_up()  # the compiled kernels, before the budget starts
     push_simulation.warm_up()
     ctx = PlanningContext(
         surface,

@@ -136,7 +136,11 @@ def test_every_agents_package_says_what_lives_there() -> None:
         assert doc and len(doc.splitlines()) == 1, f"{init.relative_to(ROOT)}: one-line docstring"
 
 
-KERNEL_MODULES = {"clutter_gym.model.arm_kernels", "planners.push_kernels"}
+KERNEL_MODULES = {
+    "clutter_gym.model.arm_kernels",
+    "clutter_gym.model.volume_kernels",
+    "planners.push_kernels",
+}
 """The only modules with numba-compiled functions."""
 
 
@@ -182,9 +186,9 @@ def test_the_warm_ups_compile_every_kernel_called_from_python() -> None:
     assert ("planners.push_kernels", "overlaps") in kernels
     check = (
         "import importlib, sys\n"
-        "from clutter_gym.model import kinematics\n"
+        "from clutter_gym.model import collision\n"
         "from planners import push_simulation\n"
-        "kinematics.warm_up()\n"
+        "collision.warm_up()\n"
         "push_simulation.warm_up()\n"
         f"kernels = {kernels!r}\n"
         "cold = [f'{m}.{n}' for m, n in kernels\n"

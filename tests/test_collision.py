@@ -25,6 +25,7 @@ from clutter_gym.model.collision import (
     convex_hull,
     interpolate,
     make_checker,
+    part_bounds,
 )
 from clutter_gym.model.herb import HandCommand, hand_targets, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
@@ -433,6 +434,59 @@ def test_volume_queries_agree_with_every_pair_of_parts() -> None:
         }
         assert a.penetrated(b + c) == labels
     assert 0.2 < np.mean(answers) < 0.8  # both answers are exercised
+
+
+def _world_pose(obj: fcl.CollisionObject) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = obj.getRotation(), obj.getTranslation()
+    return pose
+
+
+def test_placed_shapes_stand_at_their_poses_with_their_bounds() -> None:
+    """The arm is placed by quaternion (`arm_kernels.placements`) and volumes are built with
+    their parts' poses and bounds: the fcl objects of a placed arm, a placed hand and robot and
+    object volumes must stand at the primitives' poses, and a volume's poses and bounds (a
+    sum's too) be fcl's own."""
+    kin, geometry = ArmKinematics("right"), ArmGeometry()
+    robot = RobotCollision(kin, geometry)
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        q = rng.uniform(kin.lower, kin.upper)
+        hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
+        expected = geometry.primitive_poses(kin.link_frames(q), hand)
+        robot.place(q, hand)
+        placed = np.array([_world_pose(o) for o in robot._objects])
+        np.testing.assert_allclose(placed, expected, atol=1e-12)
+        robot.place_hand(kin.fk_tcp(q), hand)
+        for i, primitive in enumerate(geometry.primitives):
+            if primitive.link in HAND_RIGID_LINKS:
+                np.testing.assert_allclose(_world_pose(robot._objects[i]), expected[i], atol=1e-9)
+        path = np.stack([q, np.clip(q + rng.normal(0.0, 0.1, 7), kin.lower, kin.upper)])
+        arm = Volume.of_robot(robot, path, hand)
+        first = np.array([_world_pose(o) for o, _, _ in arm.parts[: len(expected)]])
+        np.testing.assert_allclose(first, expected, atol=1e-12)
+        objects = _random_volume(rng, "o")
+        for volume in (arm, objects, arm + objects, objects + arm):
+            from_fcl = np.array([part_bounds(obj, shape) for obj, shape, _ in volume.parts])
+            np.testing.assert_allclose(volume.part_bounds(), from_fcl, atol=1e-12)
+            poses = np.array([_world_pose(obj)[:3] for obj, _, _ in volume.parts])
+            np.testing.assert_allclose(volume.part_poses(), poses, atol=1e-12)
+
+
+def test_the_floor_map_is_the_lowest_part_bound_over_each_cell() -> None:
+    """The compiled floor map against the plain loop over every part's cells."""
+    rng = np.random.default_rng(5)
+    for trial in range(10):
+        volume = _random_volume(rng, f"f{trial}_")
+        bounds = volume.part_bounds()
+        origin = bounds[:, 0, :2].min(0)
+        low = np.floor((bounds[:, 0, :2] - origin) / 0.01).astype(int)
+        high = np.floor((bounds[:, 1, :2] - origin) / 0.01).astype(int)
+        expected = np.full(high.max(0) + 1, np.inf)
+        for (i0, j0), (i1, j1), z in zip(low, high, bounds[:, 0, 2], strict=True):
+            cells = expected[i0 : i1 + 1, j0 : j1 + 1]
+            np.minimum(cells, z, out=cells)
+        np.testing.assert_array_equal(volume._floor_map().lowest, expected)
 
 
 def test_clear_above_is_the_lowest_over_each_box_above_the_height() -> None:

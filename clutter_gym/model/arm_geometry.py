@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from clutter_gym.model import herb as hm
+from clutter_gym.model.arm_kernels import placements
 from clutter_gym.model.herb import HandCommand, hand_targets
 from clutter_gym.model.shapes import Shape
 from clutter_gym.model.transforms import rotation_exp, transform
@@ -76,6 +77,13 @@ class ArmGeometry:
     def primitive_poses(self, link_frames: np.ndarray, hand: HandCommand) -> np.ndarray:
         """(P, 4, 4) world poses of the primitives from `ArmKinematics.link_frames` (9, 4, 4)."""
         return link_frames[self.anchors] @ self.offsets(hand)
+
+    def primitive_placements(
+        self, link_frames: np.ndarray, hand: HandCommand
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """`primitive_poses` (P, 4, 4) and their rotations as (w, x, y, z) quaternions (P, 4),
+        which is how the collision checker places its fcl objects (`arm_kernels.placements`)."""
+        return placements(link_frames, self.anchors, self.offsets(hand))
 
     def link_poses(self, link_frames: np.ndarray, hand: HandCommand) -> dict[str, np.ndarray]:
         """World pose of every link frame (finger links included) at a hand command."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Collection, Iterable, Mapping
+from functools import cache, cached_property
 from typing import NamedTuple
 
 import fcl
@@ -23,12 +24,15 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from clutter_gym.model.arm_geometry import ArmGeometry
+from clutter_gym.model.arm_kernels import placements
 from clutter_gym.model.herb import OPEN_HAND, HandCommand, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
+from clutter_gym.model.kinematics import warm_up as kinematics_warm_up
 from clutter_gym.model.objects import ObjectSpec, Pose
 from clutter_gym.model.shapes import Shape
 from clutter_gym.model.trajectory import Trajectory
 from clutter_gym.model.transforms import rotation_z
+from clutter_gym.model.volume_kernels import lowest_per_cell
 from clutter_gym.model.world import Surface
 
 _HAND_LINKS = ("hand_base", "f1_knuckle", "f2_knuckle") + tuple(
@@ -154,22 +158,23 @@ class _Groups:
         return self._manager
 
     @classmethod
-    def of_parts(cls, parts: tuple[Part, ...]) -> _Groups:
+    def of_parts(cls, parts: tuple[Part, ...], poses: np.ndarray) -> _Groups:
         """Copies of one shape in order, `GROUP_SIZE` at a time, each group bounded by a box
         turned like its first copy (the copies turn little within a group): tight, and built
-        with a few array operations where a convex hull costs a millisecond."""
-        by_shape: dict[int, list[Part]] = {}
-        for part in parts:
-            by_shape.setdefault(id(part[1]), []).append(part)
+        with a few array operations where a convex hull costs a millisecond. ``poses``: the
+        parts' (`Volume.part_poses`)."""
+        by_shape: dict[int, list[int]] = {}
+        for i, part in enumerate(parts):
+            by_shape.setdefault(id(part[1]), []).append(i)
         objects, members = [], {}
-        for same in by_shape.values():
+        for indices in by_shape.values():
+            same = [parts[i] for i in indices]
             geometry = same[0][1]
             if isinstance(geometry, fcl.Convex):  # already a hull (`hulled`): as it is
                 objects += [obj for obj, _, _ in same]
                 members[id(geometry)] = Volume(same)
                 continue
-            rotations = np.array([obj.getRotation() for obj, _, _ in same])
-            origins = np.array([obj.getTranslation() for obj, _, _ in same])
+            rotations, origins = poses[indices, :, :3], poses[indices, :, 3]
             corners = _BOX_SIGNS * _half_extents(geometry)
             world = np.einsum("nij,kj->nki", rotations, corners) + origins[:, None]
             for k in range(0, len(same), GROUP_SIZE):
@@ -259,9 +264,19 @@ class Volume:
     Managers are built lazily, once, because volumes are queried far more often than built.
     """
 
-    def __init__(self, parts: Iterable[Part] = (), leaves: tuple[Volume, ...] = ()) -> None:
+    def __init__(
+        self,
+        parts: Iterable[Part] = (),
+        leaves: tuple[Volume, ...] = (),
+        poses: np.ndarray | None = None,
+        bounds: np.ndarray | None = None,
+    ) -> None:
+        """``poses`` (N, 3, 4: rotation and translation) and ``bounds`` (N, 2, 3: world
+        axis-aligned) of the parts where the builder knows them; else `part_poses` and
+        `part_bounds` ask fcl for every part's pose (two calls a part)."""
         self.parts: tuple[Part, ...] = tuple(parts)
-        self.owner: dict[int, str] = {id(geometry): label for _, geometry, label in self.parts}
+        self._poses = poses
+        self._bounds = bounds
         #: The volumes summed into this one (`__add__`), whose groups it reuses; a volume
         #: built from parts is its own single leaf.
         self._leaves = leaves or (self,)
@@ -289,13 +304,24 @@ class Volume:
             axis=1,
         )  # (N, 3, 3)
         origins = np.column_stack([poses[:, :2], np.full(len(poses), surface_z)])
-        offsets = [rotations @ np.array(p.xyz) for p in spec.primitives]  # (N, 3) each
+        offsets = np.stack([rotations @ np.array(p.xyz) for p in spec.primitives], 1)  # (N, P, 3)
+        centres = origins[:, None] + offsets
+        # The yaw's quaternions (w, x, y, z) as lists: fcl sets one in a sixth of a matrix's time.
+        quaternions = np.column_stack(
+            [np.cos(poses[:, 2] / 2), zero, zero, np.sin(poses[:, 2] / 2)]
+        ).tolist()
         parts = []
         for i in range(len(poses)):
-            for geometry, offset in zip(geometries, offsets, strict=True):
-                transform = fcl.Transform(rotations[i], origins[i] + offset[i])
-                parts.append((fcl.CollisionObject(geometry, transform), geometry, name))
-        return cls(parts)
+            for geometry, centre in zip(geometries, centres[i], strict=True):
+                placed = fcl.CollisionObject(geometry)
+                placed.setQuatRotation(quaternions[i])
+                placed.setTranslation(centre)
+                parts.append((placed, geometry, name))
+        half = np.array([_half_extents(g) for g in geometries])  # (P, 3)
+        extents = np.abs(rotations)[:, None] @ half[None, :, :, None]  # (N, P, 3, 1)
+        frames = np.empty((len(poses), len(geometries), 3, 4))
+        frames[..., :3], frames[..., 3] = rotations[:, None], centres
+        return cls(parts, poses=frames.reshape(-1, 3, 4), bounds=_bounds(centres, extents[..., 0]))
 
     @classmethod
     def of_robot(
@@ -305,12 +331,27 @@ class Volume:
         sampled so that no joint moves more than ``step_rad`` between samples."""
         parts = []
         geometries = robot.geometries
+        samples = []
         for q in interpolate(np.asarray(path, dtype=float), step_rad):
-            poses = robot.geometry.primitive_poses(robot.kinematics.link_frames(q), hand)
-            for geometry, pose in zip(geometries, poses, strict=True):
-                transform = fcl.Transform(pose[:3, :3], pose[:3, 3])
-                parts.append((fcl.CollisionObject(geometry, transform), geometry, ROBOT))
-        return cls(parts)
+            poses, quaternions = robot.geometry.primitive_placements(
+                robot.kinematics.link_frames(q), hand
+            )
+            samples.append(poses)
+            for geometry, pose, quaternion in zip(
+                geometries, poses, quaternions.tolist(), strict=True
+            ):
+                placed = fcl.CollisionObject(geometry)
+                placed.setQuatRotation(quaternion)
+                placed.setTranslation(pose[:3, 3])
+                parts.append((placed, geometry, ROBOT))
+        every = np.stack(samples)  # (S, P, 4, 4)
+        half = np.array([_half_extents(g) for g in geometries])
+        extents = np.abs(every[:, :, :3, :3]) @ half[None, :, :, None]
+        return cls(
+            parts,
+            poses=every[:, :, :3].reshape(-1, 3, 4),
+            bounds=_bounds(every[:, :, :3, 3], extents[..., 0]),
+        )
 
     @classmethod
     def of_trajectory(
@@ -341,10 +382,39 @@ class Volume:
         leaves = tuple(v for v in self._leaves + other._leaves if v.parts)
         return Volume(self.parts + other.parts, leaves)
 
+    def part_poses(self) -> np.ndarray:
+        """World poses (N, 3, 4: rotation and translation) of the parts, in order: a sum's are
+        its leaves'."""
+        if self._poses is None:
+            if self._leaves != (self,):
+                self._poses = np.concatenate([leaf.part_poses() for leaf in self._leaves])
+            else:
+                self._poses = np.array(
+                    [np.c_[o.getRotation(), o.getTranslation()] for o, _, _ in self.parts]
+                ).reshape(-1, 3, 4)
+        return self._poses
+
+    def part_bounds(self) -> np.ndarray:
+        """World axis-aligned bounds (N, 2, 3) of the parts, in order: a sum's are its
+        leaves' (whose parts it holds in order)."""
+        if self._bounds is None:
+            if self._leaves != (self,):
+                self._bounds = np.concatenate([leaf.part_bounds() for leaf in self._leaves])
+            else:
+                self._bounds = np.array([part_bounds(o, g) for o, g, _ in self.parts])
+            self._bounds = self._bounds.reshape(-1, 2, 3)
+        return self._bounds
+
     def __len__(self) -> int:
         return len(self.parts)
 
-    @property
+    @cached_property
+    def owner(self) -> dict[int, str]:
+        """The label of every part's geometry, by ``id(geometry)`` (built when first asked:
+        most sums of volumes never are)."""
+        return {id(geometry): label for _, geometry, label in self.parts}
+
+    @cached_property
     def labels(self) -> frozenset[str]:
         return frozenset(label for _, _, label in self.parts)
 
@@ -426,7 +496,7 @@ class Volume:
 
     def _floor_map(self) -> _FloorMap:
         if self._floor is None:
-            self._floor = _FloorMap(self.parts)
+            self._floor = _FloorMap(self.part_bounds())
         return self._floor
 
     def penetrated(self, other: Volume) -> set[str]:
@@ -439,7 +509,7 @@ class Volume:
         """The bounded groups of its parts: a sum's are its leaves' (built once per leaf)."""
         if self._groups is None:
             if self._leaves == (self,):
-                self._groups = _Groups.of_parts(self.parts)
+                self._groups = _Groups.of_parts(self.parts, self.part_poses())
             elif len(self._leaves) == 1:
                 self._groups = self._leaves[0]._grouped()
             else:
@@ -490,6 +560,12 @@ def convex_hull(points: np.ndarray) -> fcl.Convex:
     return fcl.Convex(np.asarray(points[used], float), len(triangles), faces)
 
 
+def _bounds(centres: np.ndarray, extents: np.ndarray) -> np.ndarray:
+    """Axis-aligned bounds (N, 2, 3) from centres and half extents (..., 3)."""
+    centres, extents = centres.reshape(-1, 3), extents.reshape(-1, 3)
+    return np.stack([centres - extents, centres + extents], axis=1)
+
+
 def part_bounds(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
     """World axis-aligned bounds (2, 3) of a placed box, cylinder or sphere."""
     extent = np.abs(np.asarray(obj.getRotation())) @ _half_extents(geometry)
@@ -502,9 +578,9 @@ class _FloorMap:
 
     RESOLUTION = 0.01
 
-    def __init__(self, parts: tuple[Part, ...]) -> None:
+    def __init__(self, bounds: np.ndarray) -> None:
+        """``bounds``: the parts' world axis-aligned bounds (N, 2, 3)."""
         self._counts: dict[float, np.ndarray] = {}
-        bounds = np.array([part_bounds(obj, g) for obj, g, _ in parts]).reshape(-1, 2, 3)
         if not len(bounds):
             self.origin = np.zeros(2)
             self.lowest = np.full((1, 1), np.inf)
@@ -513,10 +589,7 @@ class _FloorMap:
         r = self.RESOLUTION
         lo = np.floor((bounds[:, 0, :2] - self.origin) / r).astype(int)
         hi = np.floor((bounds[:, 1, :2] - self.origin) / r).astype(int)
-        self.lowest = np.full(hi.max(0) + 1, np.inf)
-        for (i0, j0), (i1, j1), z in zip(lo, hi, bounds[:, 0, 2], strict=True):
-            cells = self.lowest[i0 : i1 + 1, j0 : j1 + 1]
-            np.minimum(cells, z, out=cells)
+        self.lowest = lowest_per_cell(lo, hi, np.ascontiguousarray(bounds[:, 0, 2]), hi.max(0) + 1)
 
     def _windows(self, boxes: np.ndarray) -> tuple[np.ndarray, ...]:
         """First and last cell rows and columns (i0, i1, j0, j1) under each box, clipped to
@@ -558,6 +631,15 @@ class _FloorMap:
             counts[1:, 1:] = (self.lowest <= height).cumsum(0).cumsum(1)
             self._counts[height] = counts
         return counts
+
+
+@cache
+def warm_up() -> None:
+    """`kinematics.warm_up` and the floor map's kernel (`volume_kernels`), compiled or loaded
+    before anything is timed; once per process."""
+    kinematics_warm_up()
+    one = np.zeros((1, 2), dtype=np.int64)
+    lowest_per_cell(one, one, np.zeros(1), np.ones(2, dtype=np.int64))
 
 
 class CollisionWorld:
@@ -651,11 +733,10 @@ class RobotCollision:
 
         self._self_pairs = [(group(a), group(b)) for a, b in SELF_COLLISION_GROUPS]
         self.hand_manager = group(HAND_RIGID_LINKS)
-        self._hand_objects = [
-            (i, o)
-            for i, (o, p) in enumerate(zip(self._objects, geometry.primitives, strict=True))
-            if p.link in HAND_RIGID_LINKS
-        ]
+        self._hand_indices = np.array(
+            [i for i, p in enumerate(geometry.primitives) if p.link in HAND_RIGID_LINKS]
+        )
+        self._hand_objects = [self._objects[i] for i in self._hand_indices]
         self._placed: tuple[bytes, HandCommand] | None = None
         self._pairs_placed: tuple[bytes, HandCommand] | None = None
 
@@ -665,12 +746,15 @@ class RobotCollision:
         key = (q.tobytes(), hand)
         if key == self._placed:
             return
-        poses = self.geometry.primitive_poses(self.kinematics.link_frames(q), hand)
-        # Rotation and translation set apart: half the cost of building an fcl.Transform each.
-        for obj, rotation, origin in zip(
-            self._objects, poses[:, :3, :3], poses[:, :3, 3], strict=True
+        poses, quaternions = self.geometry.primitive_placements(
+            self.kinematics.link_frames(q), hand
+        )
+        # Rotation and translation set apart (half the cost of building an fcl.Transform each),
+        # the rotation as a quaternion in a list (a sixth of a matrix's: fcl reads its items).
+        for obj, quaternion, origin in zip(
+            self._objects, quaternions.tolist(), poses[:, :3, 3], strict=True
         ):
-            obj.setRotation(rotation)
+            obj.setQuatRotation(quaternion)
             obj.setTranslation(origin)
         self.manager.update()
         self._placed = key
@@ -681,12 +765,15 @@ class RobotCollision:
         the next `place` moves every link again."""
         frames = np.empty((9, 4, 4))
         frames[7:] = self.kinematics.hand_frames(tcp_pose)
-        anchors = self.geometry.anchors
-        offsets = self.geometry.offsets(hand)
-        for i, obj in self._hand_objects:
-            pose = frames[anchors[i]] @ offsets[i]
-            obj.setRotation(pose[:3, :3])
-            obj.setTranslation(pose[:3, 3])
+        indices = self._hand_indices
+        poses, quaternions = placements(
+            frames, self.geometry.anchors[indices], self.geometry.offsets(hand)[indices]
+        )
+        for obj, quaternion, origin in zip(
+            self._hand_objects, quaternions.tolist(), poses[:, :3, 3], strict=True
+        ):
+            obj.setQuatRotation(quaternion)
+            obj.setTranslation(origin)
         self.hand_manager.update()
         self._placed = None
 

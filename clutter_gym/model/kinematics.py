@@ -70,6 +70,7 @@ def warm_up() -> None:
     arm._jacobian(frames)
     arm._descend(frames[7] @ arm._to_tcp, arm.home, 1e-4, 1e-3, 1)
     rotation_log(np.eye(3))
+    arm_kernels.placements(arm.link_frames(arm.home), np.zeros(1, dtype=np.int64), np.eye(4)[None])
 
 
 class ArmKinematics:

@@ -75,6 +75,7 @@ class ArmCheck:
         self._hand = checker.hand_checker(hand)
         self._clear = checker.clearance_checker(grown, hand)
         self._unloaded = checker.checker(hand, objects=False)
+        self._unloaded_grown = CollisionChecker(checker.world, grown).checker(hand, objects=False)
         self._stats = stats
         #: `Arm.solve`'s answers under this check, by target pose.
         self.solved: dict[bytes, np.ndarray | None] = {}
@@ -93,9 +94,12 @@ class ArmCheck:
         return self._clear(q)
 
     def free_of_surface_and_self(self, q: np.ndarray) -> bool:
-        """The check without the obstacles (for a q already `clear` of them)."""
+        """The check without the obstacles (for a q already `clear` of them). The grown arm,
+        which `clear` has just placed at q, answers first: it holds the arm, so where it misses
+        the surface and itself the arm does, without placing the arm's own shapes (placing
+        them is most of a check's cost)."""
         self._stats.collision_checks += 1
-        return self._unloaded(q)
+        return self._unloaded_grown(q) or self._unloaded(q)
 
 
 class Arm:
