@@ -94,6 +94,47 @@ def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() ->
     assert np.max(np.linalg.norm(off_line, axis=1)) < 1e-3
 
 
+@pytest.mark.parametrize("backs_out", [True, False])
+def test_goto_backs_out_before_it_gives_up_the_clearance(backs_out: bool) -> None:
+    """Where no cleared path joins the ends, GoTo backs the hands out and seeks the cleared path
+    between the backed-out configurations, then the plain one there; the plain path between
+    the ends themselves only where neither end backs out. Each search is recorded (fakes for
+    the searches and the back-out lines)."""
+    arm = make_arm(TABLE)
+    start, goal = np.zeros(7), np.full(7, 0.5)
+    out_of = {0.0: np.full(7, 0.1), 0.5: np.full(7, 0.4)}
+    searches: list[tuple[float, float, str]] = []
+
+    def plan_path(a: np.ndarray, b: np.ndarray, check: object, constraint: object = None):
+        kind = (
+            "cleared" if getattr(check, "__qualname__", "").startswith("Arm._cleared") else "plain"
+        )
+        searches.append((float(a[0]), float(b[0]), kind))
+        found = len(searches) == 3 if backs_out else len(searches) == 2
+        return (np.stack([a, b]) if found else None), ("" if found else "no path found within 9")
+
+    def backed_out(q: np.ndarray, free: object) -> np.ndarray | None:
+        return np.stack([q, out_of[float(q[0])]]) if backs_out else None
+
+    arm.plan_path = plan_path  # type: ignore[method-assign]
+    arm._backed_out = backed_out  # type: ignore[method-assign]
+    arm.free_check = lambda obstacles, hand, exact=False: Pocket()  # type: ignore[method-assign]
+
+    class Pocket:
+        def __call__(self, q: np.ndarray) -> bool:
+            return True
+
+        clear = free_of_surface_and_self = __call__
+
+    path, reason = arm.goto(start, goal, Volume(), HAND)
+    assert path is not None, reason
+    if backs_out:
+        assert searches == [(0.0, 0.5, "cleared"), (0.1, 0.4, "cleared"), (0.1, 0.4, "plain")]
+        np.testing.assert_allclose(path[[0, -1]], [start, goal])
+    else:
+        assert searches == [(0.0, 0.5, "cleared"), (0.0, 0.5, "plain")]
+
+
 def distance_to(arm: Arm, obstacles: Volume, q: np.ndarray) -> float:
     """fcl's distance from the real arm and hand at q to the nearest part of ``obstacles``."""
     arm.robot.place(q, HAND)
