@@ -135,6 +135,27 @@ def test_goto_backs_out_before_it_gives_up_the_clearance(backs_out: bool) -> Non
         assert searches == [(0.0, 0.5, "cleared"), (0.0, 0.5, "plain")]
 
 
+def test_a_backed_out_line_is_free_between_its_waypoints() -> None:
+    """A line whose waypoints are free but whose joints pass through an obstacle between two of
+    them (here: a configuration halfway between its first two waypoints) is not a way out."""
+    arm = make_arm(SHELF)
+    goal = arm.solve(hand_pose(np.array([0.54, -0.45]), 0.4, SHELF.top_z + 0.08), lambda q: True)
+    assert goal is not None
+    line = arm._backed_out(goal, lambda q: True)
+    assert line is not None and len(line) > 2
+    dense = interpolate(line[:2], ARM_CHECK_STEP)
+    assert len(dense) > 2  # the first two waypoints are more than one check apart
+    clip = dense[len(dense) // 2]
+
+    def free(q: np.ndarray) -> bool:
+        return bool(np.max(np.abs(q - clip)) > 1e-9)
+
+    assert all(free(q) for q in line)
+    other = arm._backed_out(goal, free)
+    assert other is None or not np.array_equal(other, line)
+    assert other is None or all(free(q) for q in interpolate(other, ARM_CHECK_STEP))
+
+
 def distance_to(arm: Arm, obstacles: Volume, q: np.ndarray) -> float:
     """fcl's distance from the real arm and hand at q to the nearest part of ``obstacles``."""
     arm.robot.place(q, HAND)

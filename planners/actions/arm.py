@@ -289,9 +289,7 @@ class Arm:
                 continue
             parts = [middle] if leave is None else [leave[:-1], middle]
             path = np.concatenate(parts if enter is None else [*parts, enter[-2::-1]])
-            # The straight lines were checked at their waypoints; a GoTo path is free throughout.
-            if all(free(q) for q in interpolate(path, ARM_CHECK_STEP)):
-                return path, ""
+            return path, ""
         return None, reason
 
     @staticmethod
@@ -310,7 +308,9 @@ class Arm:
     def _backed_out(self, q: np.ndarray, free: Free) -> np.ndarray | None:
         """A straight hand motion from q out of where it stands, or None: toward the shoulder
         (out of the shelf's opening), back along the hand's approach axis, or up, by each of
-        `BACK_OUT` in turn."""
+        `BACK_OUT` in turn; free at its waypoints and every `ARM_CHECK_STEP` between them (a
+        line whose joints swing between waypoints may clip an object there: stop 47's first
+        order of GoTo's searches lost a shelf scene's approach to one)."""
         tcp = self.kinematics.fk_tcp(q)
         toward = self.kinematics.shoulder - tcp[:3, 3]
         toward[2] = 0.0
@@ -320,7 +320,7 @@ class Arm:
                 target = tcp.copy()
                 target[:3, 3] += distance * direction
                 path = self.straight(q, target, free)
-                if path is not None:
+                if path is not None and all(free(q) for q in interpolate(path, ARM_CHECK_STEP)):
                     return path
         return None
 
