@@ -25,7 +25,6 @@ from clutter_gym.model.collision import (
     convex_hull,
     interpolate,
     make_checker,
-    part_bounds,
 )
 from clutter_gym.model.herb import HandCommand, hand_targets, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
@@ -113,7 +112,7 @@ def test_primitive_poses_match_pybullet(bullet: Bullet) -> None:
         q = rng.uniform(kin.lower, kin.upper)
         hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
         bullet.set(q, hand)
-        poses = geometry.primitive_poses(kin.link_frames(q), hand)
+        poses = geometry.primitive_placements(kin.link_frames(q), hand)[0]
         links = geometry.link_poses(kin.link_frames(q), hand)
         seen: dict[str, int] = {}
         for primitive, pose in zip(geometry.primitives, poses, strict=True):
@@ -442,6 +441,19 @@ def _world_pose(obj: fcl.CollisionObject) -> np.ndarray:
     return pose
 
 
+def _fcl_bounds(obj: fcl.CollisionObject, shape: fcl.CollisionGeometry) -> np.ndarray:
+    """A placed box's, cylinder's or sphere's world bounds from fcl's pose of it."""
+    if isinstance(shape, fcl.Box):
+        half = np.asarray(shape.side, dtype=float) / 2
+    elif isinstance(shape, fcl.Cylinder):
+        half = np.array([shape.radius, shape.radius, shape.lz / 2])
+    else:
+        half = np.full(3, float(shape.radius))
+    extent = np.abs(np.asarray(obj.getRotation())) @ half
+    centre = np.asarray(obj.getTranslation(), dtype=float)
+    return np.stack([centre - extent, centre + extent])
+
+
 def test_placed_shapes_stand_at_their_poses_with_their_bounds() -> None:
     """The arm is placed by quaternion (`arm_kernels.placements`) and volumes are built with
     their parts' poses and bounds: the fcl objects of a placed arm, a placed hand and robot and
@@ -453,7 +465,7 @@ def test_placed_shapes_stand_at_their_poses_with_their_bounds() -> None:
     for _ in range(10):
         q = rng.uniform(kin.lower, kin.upper)
         hand = HandCommand(float(rng.uniform()), float(rng.uniform()))
-        expected = geometry.primitive_poses(kin.link_frames(q), hand)
+        expected = geometry.primitive_placements(kin.link_frames(q), hand)[0]
         robot.place(q, hand)
         placed = np.array([_world_pose(o) for o in robot._objects])
         np.testing.assert_allclose(placed, expected, atol=1e-12)
@@ -467,7 +479,7 @@ def test_placed_shapes_stand_at_their_poses_with_their_bounds() -> None:
         np.testing.assert_allclose(first, expected, atol=1e-12)
         objects = _random_volume(rng, "o")
         for volume in (arm, objects, arm + objects, objects + arm):
-            from_fcl = np.array([part_bounds(obj, shape) for obj, shape, _ in volume.parts])
+            from_fcl = np.array([_fcl_bounds(obj, shape) for obj, shape, _ in volume.parts])
             np.testing.assert_allclose(volume.part_bounds(), from_fcl, atol=1e-12)
             poses = np.array([_world_pose(obj)[:3] for obj, _, _ in volume.parts])
             np.testing.assert_allclose(volume.part_poses(), poses, atol=1e-12)

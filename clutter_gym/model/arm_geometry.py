@@ -74,15 +74,12 @@ class ArmGeometry:
             self._offsets[key] = cached
         return cached
 
-    def primitive_poses(self, link_frames: np.ndarray, hand: HandCommand) -> np.ndarray:
-        """(P, 4, 4) world poses of the primitives from `ArmKinematics.link_frames` (9, 4, 4)."""
-        return link_frames[self.anchors] @ self.offsets(hand)
-
     def primitive_placements(
         self, link_frames: np.ndarray, hand: HandCommand
     ) -> tuple[np.ndarray, np.ndarray]:
-        """`primitive_poses` (P, 4, 4) and their rotations as (w, x, y, z) quaternions (P, 4),
-        which is how the collision checker places its fcl objects (`arm_kernels.placements`)."""
+        """World poses (P, 4, 4) of the primitives from `ArmKinematics.link_frames` (9, 4, 4),
+        and their rotations as (w, x, y, z) quaternions (P, 4), which is how the collision
+        checker places its fcl objects (`arm_kernels.placements`)."""
         return placements(link_frames, self.anchors, self.offsets(hand))
 
     def link_poses(self, link_frames: np.ndarray, hand: HandCommand) -> dict[str, np.ndarray]:

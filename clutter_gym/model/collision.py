@@ -269,14 +269,12 @@ class Volume:
         parts: Iterable[Part] = (),
         leaves: tuple[Volume, ...] = (),
         poses: np.ndarray | None = None,
-        bounds: np.ndarray | None = None,
     ) -> None:
-        """``poses`` (N, 3, 4: rotation and translation) and ``bounds`` (N, 2, 3: world
-        axis-aligned) of the parts where the builder knows them; else `part_poses` and
-        `part_bounds` ask fcl for every part's pose (two calls a part)."""
+        """``poses``: the parts' world poses (N, 3, 4: rotation and translation) where the
+        builder knows them; else `part_poses` asks fcl for each (two calls a part)."""
         self.parts: tuple[Part, ...] = tuple(parts)
         self._poses = poses
-        self._bounds = bounds
+        self._bounds: np.ndarray | None = None
         #: The volumes summed into this one (`__add__`), whose groups it reuses; a volume
         #: built from parts is its own single leaf.
         self._leaves = leaves or (self,)
@@ -317,11 +315,9 @@ class Volume:
                 placed.setQuatRotation(quaternions[i])
                 placed.setTranslation(centre)
                 parts.append((placed, geometry, name))
-        half = np.array([_half_extents(g) for g in geometries])  # (P, 3)
-        extents = np.abs(rotations)[:, None] @ half[None, :, :, None]  # (N, P, 3, 1)
         frames = np.empty((len(poses), len(geometries), 3, 4))
         frames[..., :3], frames[..., 3] = rotations[:, None], centres
-        return cls(parts, poses=frames.reshape(-1, 3, 4), bounds=_bounds(centres, extents[..., 0]))
+        return cls(parts, poses=frames.reshape(-1, 3, 4))
 
     @classmethod
     def of_robot(
@@ -344,14 +340,7 @@ class Volume:
                 placed.setQuatRotation(quaternion)
                 placed.setTranslation(pose[:3, 3])
                 parts.append((placed, geometry, ROBOT))
-        every = np.stack(samples)  # (S, P, 4, 4)
-        half = np.array([_half_extents(g) for g in geometries])
-        extents = np.abs(every[:, :, :3, :3]) @ half[None, :, :, None]
-        return cls(
-            parts,
-            poses=every[:, :, :3].reshape(-1, 3, 4),
-            bounds=_bounds(every[:, :, :3, 3], extents[..., 0]),
-        )
+        return cls(parts, poses=np.stack(samples)[:, :, :3].reshape(-1, 3, 4))
 
     @classmethod
     def of_trajectory(
@@ -395,14 +384,17 @@ class Volume:
         return self._poses
 
     def part_bounds(self) -> np.ndarray:
-        """World axis-aligned bounds (N, 2, 3) of the parts, in order: a sum's are its
-        leaves' (whose parts it holds in order)."""
+        """World axis-aligned bounds (N, 2, 3) of the parts (boxes, cylinders and spheres),
+        from `part_poses` and each shape's half sizes."""
         if self._bounds is None:
-            if self._leaves != (self,):
-                self._bounds = np.concatenate([leaf.part_bounds() for leaf in self._leaves])
-            else:
-                self._bounds = np.array([part_bounds(o, g) for o, g, _ in self.parts])
-            self._bounds = self._bounds.reshape(-1, 2, 3)
+            halves: dict[int, np.ndarray] = {}
+            half = np.array(
+                [halves.setdefault(id(g), _half_extents(g)) for _, g, _ in self.parts]
+            ).reshape(-1, 3)
+            poses = self.part_poses()
+            extent = (np.abs(poses[:, :, :3]) @ half[:, :, None])[..., 0]
+            centre = poses[:, :, 3]
+            self._bounds = np.stack([centre - extent, centre + extent], axis=1)
         return self._bounds
 
     def __len__(self) -> int:
@@ -558,19 +550,6 @@ def convex_hull(points: np.ndarray) -> fcl.Convex:
     used, compact = np.unique(triangles, return_inverse=True)
     faces = np.hstack([np.full((len(triangles), 1), 3), compact.reshape(-1, 3)]).ravel()
     return fcl.Convex(np.asarray(points[used], float), len(triangles), faces)
-
-
-def _bounds(centres: np.ndarray, extents: np.ndarray) -> np.ndarray:
-    """Axis-aligned bounds (N, 2, 3) from centres and half extents (..., 3)."""
-    centres, extents = centres.reshape(-1, 3), extents.reshape(-1, 3)
-    return np.stack([centres - extents, centres + extents], axis=1)
-
-
-def part_bounds(obj: fcl.CollisionObject, geometry: fcl.CollisionGeometry) -> np.ndarray:
-    """World axis-aligned bounds (2, 3) of a placed box, cylinder or sphere."""
-    extent = np.abs(np.asarray(obj.getRotation())) @ _half_extents(geometry)
-    centre = np.asarray(obj.getTranslation(), dtype=float)
-    return np.stack([centre - extent, centre + extent])
 
 
 class _FloorMap:
