@@ -34,6 +34,7 @@ from planners.actions.context import PlanningContext
 from planners.actions.goals import AwayFrom, Goal, Retrieve
 from planners.actions.results import ActionResult, Failure
 from planners.actions.settings import BudgetExceeded, PlannerSettings, StatsRecord
+from planners.goto import NO_PATH
 from planners.kinds import planner_kind
 from planners.uncertainty import ObjectBelief
 
@@ -220,6 +221,11 @@ def plan_retrieval(
 NextStart = tuple[np.ndarray, HandCommand]
 """Where the next action starts: its first configuration and hand command."""
 
+UNREACHABLE_START = (
+    "to the next action's start: GoTo finds no path there from the robot's start with only "
+    "avoidVol in the way"
+)
+
 
 @dataclass(frozen=True)
 class _Candidate:
@@ -242,6 +248,12 @@ class _Search:
         self.start_arm = start_arm
         self.actions = actions
         self.max_depth = 0  # objects a plan may move, one per planning step below the goal's
+        # Next-action starts GoTo found no path to from the robot's start, each with the sets of
+        # objects it avoided then (`_probe`), and the (start, hand, avoid) already probed.
+        self._unreachable: dict[tuple[bytes, HandCommand], list[frozenset[str]]] = {}
+        self._probed: set[tuple[bytes, HandCommand, frozenset[str]]] = set()
+        # GoTo from the robot's start to a first action's start, by (start, hand) (`_approach`).
+        self._approaches: dict[tuple[bytes, HandCommand], tuple[np.ndarray | None, str]] = {}
 
     def retrieve(
         self, goal: str, others: tuple[str, ...], fixed: tuple[str, ...]
@@ -397,11 +409,18 @@ class _Search:
             return None
         ctx = self.ctx
         q_next, hand = r_next
+        key = (q_next.tobytes(), hand)
+        if any(s <= set(avoid) for s in self._unreachable.get(key, ())):
+            ctx.failures.record(Failure(o, "goto", UNREACHABLE_START))
+            return None
         placed = avoid_vol + Volume.of_object(
             o, ctx.beliefs[o].spec, result.nu[-1], ctx.surface.top_z
         )
         others = ctx.objects_volume(set(ctx.beliefs) - {o} - set(avoid))
         path, reason = self.arm.goto(result.trajectory.end, q_next, placed + others, hand)
+        if path is None and reason.startswith(NO_PATH) and not self._reachable(key, avoid):
+            ctx.failures.record(Failure(o, "goto", UNREACHABLE_START))
+            return None
         if path is None:
             path, reason = self.arm.goto(result.trajectory.end, q_next, placed, hand)
         if path is None:
@@ -409,13 +428,36 @@ class _Search:
             return None
         return Trajectory((Segment("transit", path, hand),))
 
+    def _reachable(self, key: tuple[bytes, HandCommand], avoid: tuple[str, ...]) -> bool:
+        """After a transit found no path: whether GoTo reaches the next action's start from the
+        robot's start with only avoidVol in the way, asked once per (start, hand, avoid).
+        Every transit into that start has avoidVol, and more, in its way: where even this
+        GoTo finds no path (measured on the shelf: the searches that fail there grow no tree
+        from that start at all), no transit into it whose avoid holds these objects is
+        planned (two GoTos of up to three searches of 5000 evaluations each)."""
+        avoided = frozenset(avoid)
+        if (*key, avoided) not in self._probed:
+            self._probed.add((*key, avoided))
+            q_next = np.frombuffer(key[0]).copy()
+            path, reason = self.arm.goto(
+                self.start_arm, q_next, self.ctx.objects_volume(avoid), key[1]
+            )
+            if path is None and reason.startswith(NO_PATH):
+                self._unreachable.setdefault(key, []).append(avoided)
+        return not any(s <= avoided for s in self._unreachable.get(key, ()))
+
     def _approach(self, tau: Trajectory) -> Trajectory | None:
-        """GoTo from the robot's start to the first action, every object where it is now."""
+        """GoTo from the robot's start to the first action, every object where it is now:
+        the same request whatever the plan above it, so each is planned once (the deepening
+        passes offer the same first actions again)."""
         ctx = self.ctx
         hand = tau.segments[0].hand
-        path, reason = self.arm.goto(
-            self.start_arm, tau.start, ctx.objects_volume(ctx.beliefs), hand
-        )
+        key = (tau.start.tobytes(), hand)
+        if key not in self._approaches:
+            self._approaches[key] = self.arm.goto(
+                self.start_arm, tau.start, ctx.objects_volume(ctx.beliefs), hand
+            )
+        path, reason = self._approaches[key]
         if path is None:
             ctx.failures.record(Failure("robot", "goto", f"from the start configuration: {reason}"))
             return None

@@ -411,3 +411,84 @@ def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
     assert searched[0] == ("can", ("a",))
     assert ("can", ("a", "b")) not in searched  # the shorter one led to a plan
     assert [(s.result.obj, s.result.details["k"]) for s in steps] == [("a", 0), ("can", 1)]
+
+
+class _RecordingArm:
+    """GoTo that records its requests and finds a path only from the robot's start when told."""
+
+    def __init__(self, start: np.ndarray, reaches_from_start: bool) -> None:
+        self.start = start
+        self.reaches_from_start = reaches_from_start
+        self.requests: list[tuple[str, Volume]] = []
+
+    def goto(
+        self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
+    ) -> tuple[np.ndarray | None, str]:
+        from_start = bool(np.array_equal(start, self.start))
+        self.requests.append(("from start" if from_start else "transit", obstacles))
+        if from_start and self.reaches_from_start:
+            return np.stack([start, goal]), ""
+        return None, "no path found within 5000 evaluations"
+
+
+def _transit_search(reaches_from_start: bool) -> tuple[_Search, _RecordingArm]:
+    places = (("can", 0.0), ("a", 0.2), ("b", -0.2))
+    beliefs = [belief(n, "soda_can", (0.7, y, 0.0), n=1) for n, y in places]
+    ctx = PlanningContext(
+        TABLE,
+        {b.name: b for b in beliefs},
+        PlannerSettings(),
+        TABLE.default_goal_region,
+        np.random.default_rng(0),
+    )
+    arm = _RecordingArm(hm.RIGHT_ARM_HOME, reaches_from_start)
+    return _Search(ctx, arm, hm.RIGHT_ARM_HOME, ()), arm  # type: ignore[arg-type]
+
+
+def _moved(name: str) -> ActionResult:
+    still = Trajectory((Segment("sweep", np.full((2, 7), 0.1), HandCommand()),))
+    return ActionResult("sweep", name, still, np.array([[[0.7, 0.4, 0.0]]]), False, {})
+
+
+@pytest.mark.parametrize("reaches_from_start", [False, True])
+def test_a_transit_into_a_start_goto_cannot_reach_among_avoid_alone_is_refused(
+    reaches_from_start: bool,
+) -> None:
+    """A transit that finds no path asks once whether GoTo reaches the next action's start from
+    the robot's start with only avoidVol in the way. Where it does not, the transit's second
+    GoTo and every later transit into that start whose avoid holds those objects are refused
+    without a GoTo; a transit with fewer objects avoided is planned. Where it does, every
+    transit is planned as before."""
+    search, arm = _transit_search(reaches_from_start)
+    ctx = search.ctx
+    r_next = (np.full(7, 0.2), HandCommand())
+    avoid = ("can",)
+    assert search._transit("a", _moved("a"), avoid, ctx.objects_volume(avoid), r_next) is None
+    kinds = [kind for kind, _ in arm.requests]
+    if reaches_from_start:
+        assert kinds == ["transit", "from start", "transit"]
+    else:
+        assert kinds == ["transit", "from start"]
+        assert arm.requests[1][1] is ctx.objects_volume(avoid)  # avoidVol alone
+    arm.requests.clear()
+    wider = ("b", "can")
+    assert search._transit("a", _moved("a"), wider, ctx.objects_volume(wider), r_next) is None
+    # the answer for ("can",) holds for a superset; a new avoid set is asked once more
+    assert [k for k, _ in arm.requests] == (
+        ["transit", "from start", "transit"] if reaches_from_start else []
+    )
+    arm.requests.clear()
+    assert search._transit("b", _moved("b"), (), ctx.objects_volume(()), r_next) is None
+    assert [k for k, _ in arm.requests][:1] == ["transit"]
+
+
+def test_an_approach_is_planned_once_per_start() -> None:
+    """The deepening passes offer the same first action again: its approach (every object
+    where it is now) is planned once, and its failure is logged each time it is asked."""
+    search, arm = _transit_search(reaches_from_start=False)
+    tau = _moved("a").trajectory
+    assert search._approach(tau) is None and search._approach(tau) is None
+    assert [k for k, _ in arm.requests] == ["from start"]
+    assert search.ctx.failures.blockers() == [
+        "goto robot: from the start configuration: no path found within 5000 evaluations (2x)"
+    ]
