@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import fcl
@@ -25,11 +25,13 @@ from clutter_gym.model.collision import (
     convex_hull,
     interpolate,
     make_checker,
+    objects_overlap,
 )
 from clutter_gym.model.herb import HandCommand, hand_targets, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.objects import OBJECTS, ObjectSpec, Pose
 from clutter_gym.model.reachability import approach_rotation
+from clutter_gym.model.shapes import Shape
 from clutter_gym.model.trajectory import Segment, Trajectory
 from clutter_gym.model.world import TABLE
 from tests.helpers import HerbBullet, load_herb, transform
@@ -556,3 +558,42 @@ def test_a_grown_arm_is_clear_only_of_objects_at_least_its_margin_away() -> None
             assert clear
         outcomes["near" if distance < margin else "far"] += 1
     assert min(outcomes.values()) >= 10  # both sides of the margin were tried
+
+
+@pytest.mark.parametrize("kinds", list(itertools.combinations_with_replacement(sorted(OBJECTS), 2)))
+def test_objects_overlap_answers_as_fcl_does(kinds: tuple[str, str]) -> None:
+    """The planar test of two objects standing on one surface says what fcl says of their
+    volumes, on pose sets near enough that about half of them penetrate (single poses a few
+    centimetres apart across the boundary, and sets of a few poses, spread by the objects'
+    sizes)."""
+    a, b = (OBJECTS[k] for k in kinds)
+    rng = np.random.default_rng(sum(map(ord, "".join(kinds))))
+    spread = 0.75 * (a.footprint.bounding_radius + b.footprint.bounding_radius)
+    hits = 0
+    for trial in range(300):
+        sizes = (1, 1) if trial % 2 else (4, 3)
+        poses = [
+            np.column_stack([rng.uniform(-spread, spread, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+            for n in sizes
+        ]
+        fcl_says = Volume.of_object("a", a, poses[0], 0.7).intersects(
+            Volume.of_object("b", b, poses[1], 0.7)
+        )
+        assert objects_overlap(a, poses[0], b, poses[1]) == fcl_says, (kinds, poses)
+        hits += fcl_says
+    assert 30 <= hits <= 270  # both answers, many times
+
+
+def test_objects_overlap_sees_heights() -> None:
+    """A flat mat under the dumbbell's handle, between its heads, overlaps it from above but
+    not in height: apart, as fcl says; raised into the handle, they meet."""
+    dumbbell = OBJECTS["dumbbell"]
+    flat = Shape("box", (0.1, 0.02, 0.02), (0.0, 0.0, 0.01))
+    mat = replace(OBJECTS["poptart_box"], kind="mat", primitives=(flat,))
+    under = np.zeros((1, 3))
+    assert not Volume.of_object("m", mat, under, 0.0).intersects(
+        Volume.of_object("d", dumbbell, under, 0.0)
+    )
+    assert not objects_overlap(mat, under, dumbbell, under)
+    raised = replace(mat, primitives=(Shape("box", (0.1, 0.02, 0.02), (0.0, 0.0, 0.05)),))
+    assert objects_overlap(raised, under, dumbbell, under)

@@ -367,20 +367,26 @@ def test_failure_log_ranks_the_objects_that_blocked_an_objects_actions() -> None
     assert log.blocking("can") == ["bottle"] and log.blocking("box") == []
 
 
-def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """Within one action, the goal's first candidate penetrates two objects and its second
-    one: the second is searched first (a shorter plan), though both could lead to a plan."""
+def _three_cans() -> PlanningContext:
+    """A planning context with cans "can", "a" and "b" in a row across the table, one sample
+    each."""
     places = (("can", 0.0), ("a", 0.2), ("b", -0.2))
     beliefs = [belief(n, "soda_can", (0.7, y, 0.0), n=1) for n, y in places]
-    ctx = PlanningContext(
+    return PlanningContext(
         TABLE,
         {b.name: b for b in beliefs},
         PlannerSettings(),
         TABLE.default_goal_region,
         np.random.default_rng(0),
     )
+
+
+def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Within one action, the goal's first candidate penetrates two objects and its second
+    one: the second is searched first (a shorter plan), though both could lead to a plan."""
+    ctx = _three_cans()
     still = Trajectory((Segment("still", np.zeros((2, 7)), HandCommand()),))
     penetrates: dict[str, list[tuple[str, ...]]] = {"can": [("a", "b"), ("a",)], "a": [()]}
     searched: list[tuple[str, tuple[str, ...]]] = []
@@ -432,15 +438,7 @@ class _RecordingArm:
 
 
 def _transit_search(reaches_from_start: bool) -> tuple[_Search, _RecordingArm]:
-    places = (("can", 0.0), ("a", 0.2), ("b", -0.2))
-    beliefs = [belief(n, "soda_can", (0.7, y, 0.0), n=1) for n, y in places]
-    ctx = PlanningContext(
-        TABLE,
-        {b.name: b for b in beliefs},
-        PlannerSettings(),
-        TABLE.default_goal_region,
-        np.random.default_rng(0),
-    )
+    ctx = _three_cans()
     arm = _RecordingArm(hm.RIGHT_ARM_HOME, reaches_from_start)
     return _Search(ctx, arm, hm.RIGHT_ARM_HOME, ()), arm  # type: ignore[arg-type]
 

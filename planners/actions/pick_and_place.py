@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clutter_gym.model.collision import Volume
+from clutter_gym.model.collision import Volume, objects_overlap
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
@@ -105,11 +105,11 @@ def _free_placements(
 
 @dataclass(frozen=True)
 class _Other:
-    """Another object as the placement search meets it: its samples' (x, y), bounding radius
-    and the disc (centroid, spread) holding the samples, computed once per search."""
+    """Another object as the placement search meets it: its samples (planar poses), bounding
+    radius and the disc (centroid, spread) holding the samples, computed once per search."""
 
     name: str
-    samples: np.ndarray
+    poses: np.ndarray
     radius: float
     centre: np.ndarray
     spread: float
@@ -119,32 +119,26 @@ class _Other:
         belief = ctx.beliefs[name]
         centre, spread = _disc(belief.samples)
         radius = belief.spec.footprint.bounding_radius
-        return cls(name, belief.samples[:, :2], radius, centre, spread)
+        return cls(name, belief.samples, radius, centre, spread)
 
 
 def _meets_others(
     ctx: PlanningContext, name: str, placed: np.ndarray, others: list[_Other]
 ) -> bool:
-    """Whether the object at any of ``placed`` overlaps a sample of another object: bounding
-    circles first, the exact shapes only where those meet. An object whose samples' disc
-    (centroid and spread) is farther than every pair of circles could reach is skipped before
-    the pairs are measured: most placements are far from most objects."""
+    """Whether the object at any of ``placed`` overlaps a sample of another object
+    (`collision.objects_overlap`: exact, in the plane and in height). An object whose samples'
+    disc (centroid and spread) is farther than every pair of bounding circles could reach is
+    skipped: most placements are far from most objects."""
     with ctx.stats.timed("placement"):
-        radius = ctx.beliefs[name].spec.footprint.bounding_radius
+        spec = ctx.beliefs[name].spec
         centre, spread = _disc(placed)
-        near = []
         for other in others:
-            reach = radius + other.radius
+            reach = spec.footprint.bounding_radius + other.radius
             if np.linalg.norm(centre - other.centre) >= spread + other.spread + reach:
                 continue
-            gaps = np.linalg.norm(placed[:, None, :2] - other.samples[None], axis=-1)
-            if (gaps < reach).any():
-                near.append(other.name)
-        if not near:
-            return False
-        spec = ctx.beliefs[name].spec
-        volume = Volume.of_object(name, spec, placed, ctx.surface.top_z)
-        return volume.intersects(ctx.objects_volume(near))
+            if objects_overlap(spec, placed, ctx.beliefs[other.name].spec, other.poses):
+                return True
+        return False
 
 
 def _disc(poses: np.ndarray) -> tuple[np.ndarray, float]:
