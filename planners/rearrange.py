@@ -249,7 +249,7 @@ class _Search:
         self.actions = actions
         self.max_depth = 0  # objects a plan may move, one per planning step below the goal's
         # Next-action starts GoTo found no path to from the robot's start, each with the sets of
-        # objects it avoided then (`_probe`), and the (start, hand, avoid) already probed.
+        # objects it avoided then (`_reachable`), and the (start, hand, avoid) already asked.
         self._unreachable: dict[tuple[bytes, HandCommand], list[frozenset[str]]] = {}
         self._probed: set[tuple[bytes, HandCommand, frozenset[str]]] = set()
         # GoTo from the robot's start to a first action's start, by (start, hand) (`_approach`).
@@ -410,7 +410,7 @@ class _Search:
         ctx = self.ctx
         q_next, hand = r_next
         key = (q_next.tobytes(), hand)
-        if any(s <= set(avoid) for s in self._unreachable.get(key, ())):
+        if self._known_unreachable(key, frozenset(avoid)):
             ctx.failures.record(Failure(o, "goto", UNREACHABLE_START))
             return None
         placed = avoid_vol + Volume.of_object(
@@ -418,7 +418,7 @@ class _Search:
         )
         others = ctx.objects_volume(set(ctx.beliefs) - {o} - set(avoid))
         path, reason = self.arm.goto(result.trajectory.end, q_next, placed + others, hand)
-        if path is None and reason.startswith(NO_PATH) and not self._reachable(key, avoid):
+        if path is None and reason.startswith(NO_PATH) and not self._reachable(key, q_next, avoid):
             ctx.failures.record(Failure(o, "goto", UNREACHABLE_START))
             return None
         if path is None:
@@ -428,7 +428,9 @@ class _Search:
             return None
         return Trajectory((Segment("transit", path, hand),))
 
-    def _reachable(self, key: tuple[bytes, HandCommand], avoid: tuple[str, ...]) -> bool:
+    def _reachable(
+        self, key: tuple[bytes, HandCommand], q_next: np.ndarray, avoid: tuple[str, ...]
+    ) -> bool:
         """After a transit found no path: whether GoTo reaches the next action's start from the
         robot's start with only avoidVol in the way, asked once per (start, hand, avoid).
         Every transit into that start has avoidVol, and more, in its way: where even this
@@ -438,13 +440,16 @@ class _Search:
         avoided = frozenset(avoid)
         if (*key, avoided) not in self._probed:
             self._probed.add((*key, avoided))
-            q_next = np.frombuffer(key[0]).copy()
             path, reason = self.arm.goto(
                 self.start_arm, q_next, self.ctx.objects_volume(avoid), key[1]
             )
             if path is None and reason.startswith(NO_PATH):
                 self._unreachable.setdefault(key, []).append(avoided)
-        return not any(s <= avoided for s in self._unreachable.get(key, ()))
+        return not self._known_unreachable(key, avoided)
+
+    def _known_unreachable(self, key: tuple[bytes, HandCommand], avoid: frozenset[str]) -> bool:
+        """Whether GoTo found no path to this start among a subset of ``avoid`` alone."""
+        return any(s <= avoid for s in self._unreachable.get(key, ()))
 
     def _approach(self, tau: Trajectory) -> Trajectory | None:
         """GoTo from the robot's start to the first action, every object where it is now:

@@ -363,10 +363,10 @@ def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_over
 
 
 def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap() -> None:
-    """Pick-and-place's placement test skips objects whose samples are far away before it
-    measures any pair: over a grid of placements of a held can around two neighbours, its
+    """Pick-and-place's placement test skips poses far from an object's samples before it
+    compares any shapes: over a grid of placements of a held can around two neighbours, its
     answer is the exact overlap of the placed samples with every other object's samples."""
-    from planners.actions.pick_and_place import _meets_others, _Other
+    from planners.actions.pick_and_place import _meets_others
 
     ctx = _scene_context(
         ("can", "soda_can", (0.62, 0.0, 0.0)),
@@ -382,7 +382,7 @@ def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap(
             exact = Volume.of_object("can", spec, placed, TABLE.top_z).intersects(
                 ctx.objects_volume(others)
             )
-            met = _meets_others(ctx, "can", placed, [_Other.of(ctx, o) for o in others])
+            met = _meets_others(ctx, "can", placed, others)
             assert met == exact, (dx, dy)
             answers.append(exact)
     assert any(answers) and not all(answers)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -89,7 +88,7 @@ def _free_placements(
     stands clear of every other object. Placements are plentiful and the object is held at
     many poses, so G is decided by its quick sufficient test (axis-aligned bounds clear of
     the NGR) and the other objects by bounding circles before any exact geometry."""
-    others = [_Other.of(ctx, o) for o in sorted(set(ctx.beliefs) - {name})]
+    others = sorted(set(ctx.beliefs) - {name})
     tried = 0
     with ctx.stats.timed("placement"):
         shifts = _placements(ctx, in_hand[0, :2])
@@ -103,49 +102,16 @@ def _free_placements(
         yield shift, placed
 
 
-@dataclass(frozen=True)
-class _Other:
-    """Another object as the placement search meets it: its samples (planar poses), bounding
-    radius and the disc (centroid, spread) holding the samples, computed once per search."""
-
-    name: str
-    poses: np.ndarray
-    radius: float
-    centre: np.ndarray
-    spread: float
-
-    @classmethod
-    def of(cls, ctx: PlanningContext, name: str) -> _Other:
-        belief = ctx.beliefs[name]
-        centre, spread = _disc(belief.samples)
-        radius = belief.spec.footprint.bounding_radius
-        return cls(name, belief.samples, radius, centre, spread)
-
-
-def _meets_others(
-    ctx: PlanningContext, name: str, placed: np.ndarray, others: list[_Other]
-) -> bool:
-    """Whether the object at any of ``placed`` overlaps a sample of another object
-    (`collision.objects_overlap`: exact, in the plane and in height). An object whose samples'
-    disc (centroid and spread) is farther than every pair of bounding circles could reach is
-    skipped: most placements are far from most objects."""
+def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: list[str]) -> bool:
+    """Whether the object at any of ``placed`` overlaps a sample of one of ``others``
+    (`collision.objects_overlap`: exact, in the plane and in height; poses far from an
+    object's samples are skipped before any shape is compared)."""
     with ctx.stats.timed("placement"):
         spec = ctx.beliefs[name].spec
-        centre, spread = _disc(placed)
-        for other in others:
-            reach = spec.footprint.bounding_radius + other.radius
-            if np.linalg.norm(centre - other.centre) >= spread + other.spread + reach:
-                continue
-            if objects_overlap(spec, placed, ctx.beliefs[other.name].spec, other.poses):
-                return True
-        return False
-
-
-def _disc(poses: np.ndarray) -> tuple[np.ndarray, float]:
-    """The centroid of poses' (x, y) and the largest distance of one from it."""
-    xy = np.asarray(poses, dtype=float)[:, :2]
-    centre = xy.mean(axis=0)
-    return centre, float(np.linalg.norm(xy - centre, axis=1).max())
+        return any(
+            objects_overlap(spec, placed, ctx.beliefs[o].spec, ctx.beliefs[o].samples)
+            for o in others
+        )
 
 
 def _carry(
