@@ -299,6 +299,58 @@ def test_a_hull_hit_is_confirmed_against_the_samples() -> None:
     assert hulled.touching_objects(at_sample) == {"can"}
 
 
+def test_hulls_confirmed_by_the_links_that_hit_them_answer_as_the_samples_do() -> None:
+    """A hull hit is confirmed only against the hit object's samples and only by the links
+    that hit its hull: among three neighbours whose few samples spread wide (so that each
+    hull covers gaps between them), the hulled world answers every query as the world of the
+    samples themselves does, for the arm, the hand alone and the arm grown by a margin."""
+    kin, geometry = ArmKinematics("right"), ArmGeometry()
+    rng = np.random.default_rng(11)
+    obstacles = Volume()
+    for name, kind, xy in (
+        ("can", "soda_can", (0.78, -0.32)),
+        ("bottle", "juice_bottle", (0.80, -0.10)),
+        ("box", "poptart_box", (0.92, -0.22)),
+    ):
+        samples = np.c_[rng.normal(xy, 0.1, (5, 2)), rng.normal(0.0, 0.175, 5)]
+        obstacles += Volume.of_object(name, OBJECTS[kind], samples, TABLE.top_z)
+    robot, grown = RobotCollision(kin, geometry), RobotCollision(kin, geometry, 0.02)
+
+    def checker(volume: Volume, hulled: bool = False) -> CollisionChecker:
+        return CollisionChecker(CollisionWorld.around(TABLE, volume, hulled=hulled), robot)
+
+    exact, hulled = checker(obstacles), checker(obstacles, hulled=True)
+    hull_only = checker(obstacles.hulled())
+    answers = {True: 0, False: 0}
+    # Queries a hull alone refuses and the samples leave free, per checker: where the
+    # confirmation changes the answer.
+    gaps = {"arm": 0, "hand": 0, "grown": 0}
+    for _ in range(150):
+        heading = rng.uniform(-0.9, 0.9)
+        target = tcp_target(
+            rng.uniform(0.62, 0.95),
+            rng.uniform(-0.55, 0.08),
+            TABLE.top_z + rng.uniform(0.03, 0.25),
+            (np.cos(heading), np.sin(heading)),
+        )
+        solutions = kin.ik_solutions(target)
+        if not len(solutions):
+            continue
+        hand_clear = exact.hand_checker(CLOSED)(target)
+        assert hulled.hand_checker(CLOSED)(target) == hand_clear
+        gaps["hand"] += hand_clear and not hull_only.hand_checker(CLOSED)(target)
+        for q in solutions[:: max(1, len(solutions) // 4)]:
+            hit = exact.in_collision(q, CLOSED, self_collision=False)
+            assert hulled.in_collision(q, CLOSED, self_collision=False) == hit
+            answers[hit] += 1
+            gaps["arm"] += not hit and hull_only.in_collision(q, CLOSED, self_collision=False)
+            clear = exact.clearance_checker(grown, CLOSED)(q)
+            assert hulled.clearance_checker(grown, CLOSED)(q) == clear
+            gaps["grown"] += clear and not hull_only.clearance_checker(grown, CLOSED)(q)
+    assert answers[True] >= 50 and answers[False] >= 50, answers
+    assert min(gaps.values()) >= 5, gaps
+
+
 def test_a_hand_hit_is_a_hit_of_every_ik_solution_of_the_pose() -> None:
     """`hand_checker` tests the links rigid with the TCP, placed from the TCP pose alone: they
     stand where every IK solution of the pose puts them, and where they hit the surface or an

@@ -416,7 +416,7 @@ class Volume:
             self._manager = _manager(obj for obj, _, _ in self.parts)
         return self._manager
 
-    def _of_label(self, label: str) -> Volume:
+    def of_label(self, label: str) -> Volume:
         """The parts of one owner, as the sum of the leaves that hold only it where they do
         (so that their groups are reused)."""
         if label not in self._by_label:
@@ -495,7 +495,7 @@ class Volume:
         """FindPenetrated: the labels of ``other`` whose shapes this volume penetrates."""
         if not self.parts:
             return set()
-        return {label for label in sorted(other.labels) if self.intersects(other._of_label(label))}
+        return {label for label in sorted(other.labels) if self.intersects(other.of_label(label))}
 
     def _grouped(self) -> _Groups:
         """The bounded groups of its parts: a sum's are its leaves' (built once per leaf)."""
@@ -708,7 +708,7 @@ class CollisionWorld:
         self.owner: dict[int, str] = {**obstacles.owner, **(exact.owner if exact else {})}
         self.object_manager = obstacles.manager
         #: Where ``obstacles`` are hulls: the exact shapes that confirm a hit on a hull.
-        self.exact_manager = exact.manager if exact is not None and exact.parts else None
+        self.exact = exact if exact is not None and exact.parts else None
 
     def geometry_ids(self, names: Iterable[str]) -> frozenset[int]:
         """Geometry ids of the named objects (unknown names are an error, not a silent no-op)."""
@@ -734,6 +734,8 @@ class RobotCollision:
         self.margin = margin
         self.geometries = [_fcl_geometry(p.shape, margin) for p in geometry.primitives]
         self._objects = [fcl.CollisionObject(g, fcl.Transform()) for g in self.geometries]
+        #: Each primitive's fcl object by ``id`` of its geometry (what a contact reports).
+        self.by_geometry = {id(g): o for g, o in zip(self.geometries, self._objects, strict=True)}
         self.manager = _manager(self._objects)
 
         def group(links: tuple[str, ...]) -> fcl.DynamicAABBTreeCollisionManager:
@@ -829,21 +831,35 @@ class CollisionChecker:
     ) -> bool:
         if self.surface_collision(q, hand):
             return True
-        if self._objects_hit(self.robot.manager, skip):
+        if self._objects_hit(self.robot, self.robot.manager, skip):
             return True
         return self_collision and self.robot.self_collision(q, hand)
 
     def _objects_hit(
-        self, links: fcl.DynamicAABBTreeCollisionManager, skip: frozenset[int]
+        self,
+        robot: RobotCollision,
+        links: fcl.DynamicAABBTreeCollisionManager,
+        skip: frozenset[int],
     ) -> bool:
-        """Whether placed ``links`` hit an object: its hull (or shape), then, where the world's
-        objects are hulls, the exact shapes confirming the hit."""
-
-        def hit(objects: fcl.DynamicAABBTreeCollisionManager) -> bool:
-            return bool(_collide(links, objects, _Query(skip)).hits)
-
-        exact = self.world.exact_manager
-        return hit(self.world.object_manager) and (exact is None or hit(exact))
+        """Whether ``robot``'s placed ``links`` hit an object. Where the world's objects are
+        hulls, a hit is confirmed against the exact shapes, but only of the objects whose
+        hulls were hit and only by the links that hit them: a hull holds its object's shapes,
+        so no other link can touch them. (Confirming with every link against every sample
+        compared a few hundred pairs of overlapping bounds per check in clutter.)"""
+        exact = self.world.exact
+        hulls = _collide(links, self.world.object_manager, _Query(skip, first_only=exact is None))
+        if exact is None or not hulls.hits:
+            return bool(hulls.hits)
+        owner = self.world.owner
+        for a, b in hulls.hits:
+            link, hull = (a, b) if a in robot.by_geometry else (b, a)
+            confirm = _Query(skip)
+            exact.of_label(owner[hull]).manager.collide(
+                robot.by_geometry[link], None, confirm.__call__
+            )
+            if confirm.hits:
+                return True
+        return False
 
     def hand_checker(self, hand: HandCommand = OPEN_HAND) -> Callable[[np.ndarray], bool]:
         """Whether the links rigid with the TCP (`HAND_RIGID_LINKS`), with the TCP at a pose
@@ -857,7 +873,7 @@ class CollisionChecker:
             links = self.robot.hand_manager
             if _collide(links, self.world.surface_manager, _Query()).hits:
                 return False
-            return not self._objects_hit(links, frozenset())
+            return not self._objects_hit(self.robot, links, frozenset())
 
         return clear
 
@@ -870,7 +886,7 @@ class CollisionChecker:
 
         def clear(q: np.ndarray) -> bool:
             grown.place(q, hand)
-            return not self._objects_hit(grown.manager, frozenset())
+            return not self._objects_hit(grown, grown.manager, frozenset())
 
         return clear
 
