@@ -218,6 +218,39 @@ def _scene_context(*objects: tuple[str, str, tuple[float, float, float]]) -> Pla
     return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
 
 
+def test_an_evolution_sweeps_into_avoid_as_its_fcl_volume_does() -> None:
+    """`PlanningContext.sweeps_into` tests nu_o against avoidVol in the plane and in height
+    where avoidVol is the named objects' samples, and with fcl shapes otherwise: the answers
+    are fcl's on random evolutions among a can, a bottle, a pop-tart box and the dumbbell,
+    and a volume that holds more than those samples (an object placed where an action left
+    it) is seen whole."""
+    ctx = _scene_context(
+        ("goal", "juice_bottle", (0.75, -0.20, 0.3)),
+        ("can", "soda_can", (0.72, -0.05, 0.0)),
+        ("box", "poptart_box", (0.86, -0.22, 1.1)),
+        ("bell", "dumbbell", (0.70, -0.36, 0.4)),
+    )
+    top = TABLE.top_z
+    rng = np.random.default_rng(5)
+    hits = 0
+    for _ in range(60):
+        names = [n for n in ("can", "box", "bell") if rng.random() < 0.7]
+        avoid = ctx.objects_volume(names)
+        start = np.array([0.75, -0.20, 0.0]) + rng.normal(0.0, [0.05, 0.05, 1.0])
+        path = start + np.linspace(0.0, 1.0, 40)[:, None] * rng.normal(0.0, [0.08, 0.08, 0.5])
+        nu = path[:, None, :] + rng.normal(0.0, [0.005, 0.005, 0.03], (40, 20, 3))
+        spec = ctx.beliefs["goal"].spec
+        expected = Volume.of_object("goal", spec, nu.reshape(-1, 3), top).intersects(avoid)
+        assert ctx.sweeps_into("goal", nu, avoid) == expected
+        hits += expected
+    assert 10 <= hits <= 50, hits
+    # An object left at a pose in avoidVol's sum: the planar path would not see it.
+    nu = np.array([[0.60, 0.20, 0.0], [0.62, 0.20, 0.1]])
+    left = Volume.of_object("can", ctx.beliefs["can"].spec, np.array([0.61, 0.20, 0.0]), top)
+    assert not ctx.sweeps_into("goal", nu, ctx.objects_volume(["can"]))
+    assert ctx.sweeps_into("goal", nu, ctx.objects_volume(["can"]) + left)
+
+
 @pytest.mark.parametrize("yaw", [0.0, 1.446, 2.08])
 def test_a_box_is_swept_square_to_its_faces_a_can_along_the_grid(yaw: float) -> None:
     """Sweep directions every `sweep_step_deg`, and for a box also square to each detected

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from clutter_gym.model.collision import Volume
+from clutter_gym.model.collision import Volume, objects_overlap
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from clutter_gym.model.world import Region, Surface
@@ -94,6 +94,22 @@ class PlanningContext:
             b = self.beliefs[name]
             self._volumes[name] = Volume.of_object(name, b.spec, b.samples, self.surface.top_z)
         return self._volumes[name]
+
+    def sweeps_into(self, name: str, poses: np.ndarray, avoid: Volume) -> bool:
+        """Whether object ``name`` standing at any of ``poses`` (N, 3) penetrates ``avoid``.
+        Where ``avoid`` is the samples of named objects (`objects_volume`: avoidVol in
+        Rearrange), each is tested in the plane and in height (`collision.objects_overlap`):
+        the same answer as placing the object's fcl shapes at every pose, which cost a
+        millisecond or more per test (nu_o holds hundreds to thousands of poses)."""
+        spec = self.beliefs[name].spec
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        labels = avoid.labels
+        if labels <= self.beliefs.keys() and self._sums.get(labels) is avoid:
+            return any(
+                objects_overlap(spec, poses, self.beliefs[o].spec, self.beliefs[o].samples)
+                for o in sorted(labels)
+            )
+        return Volume.of_object(name, spec, poses, self.surface.top_z).intersects(avoid)
 
     def samples_facing(self, name: str, heading: float) -> np.ndarray:
         """U(name) in the frame at the world's origin whose x axis points along ``heading``

@@ -130,7 +130,6 @@ def hand_in(
     """The hand moves straight in, as low as the arm can hold it (`Arm.line_heights`), from
     ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
     ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible)."""
-    spec = ctx.beliefs[name].spec
     start_xy, end_xy = line
     why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
@@ -161,8 +160,7 @@ def hand_in(
     nu = evolve()
     if avoid.parts:  # an empty avoidVol (nothing to avoid) needs no swept volume
         with ctx.stats.timed("volumes"):
-            swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
-            if swept.intersects(avoid):
+            if ctx.sweeps_into(name, nu, avoid):
                 return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
     return HandIn(push, q_end, end_xy, heading, z, nu, profile)
 
@@ -341,10 +339,7 @@ def through_close(nu: np.ndarray, turning: np.ndarray, in_hand: np.ndarray) -> l
 def turned_into(ctx: PlanningContext, name: str, turning: np.ndarray, avoid: Volume) -> bool:
     """Whether the object at the `closing` stages overlaps avoidVol."""
     with ctx.stats.timed("volumes"):
-        spec = ctx.beliefs[name].spec
-        return Volume.of_object(name, spec, turning.reshape(-1, 3), ctx.surface.top_z).intersects(
-            avoid
-        )
+        return ctx.sweeps_into(name, turning, avoid)
 
 
 def _retrieve(

@@ -323,9 +323,7 @@ def _simulate(
     pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
     if pilot is None:
         return not_far_enough
-    spec = ctx.beliefs[name].spec
-    path = Volume.of_object(name, spec, pilot[1].reshape(-1, 3), ctx.surface.top_z)
-    if path.intersects(avoid):
+    if ctx.sweeps_into(name, pilot[1], avoid):
         return PILOT_INTO_AVOID
     swept = _sweep_until(
         ctx,
@@ -365,8 +363,7 @@ def _sweep_motion(
     if not arm.motion_free((motion,), avoid):
         return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
     with ctx.stats.timed("volumes"):
-        swept = Volume.of_object(name, spec, nu.reshape(-1, 3), ctx.surface.top_z)
-        if swept.intersects(avoid):
+        if ctx.sweeps_into(name, nu, avoid):
             return Failure(name, ACTION, "the object's uncertainty sweeps into avoidVol")
     placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
     clear = arm.free_check(placed, hand, exact=True)
