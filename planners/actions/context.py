@@ -104,7 +104,7 @@ class PlanningContext:
         spec = self.beliefs[name].spec
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         labels = avoid.labels
-        if labels <= self.beliefs.keys() and self._sums.get(labels) is avoid:
+        if self._sums.get(labels) is avoid:  # `objects_volume(labels)` itself
             return any(
                 objects_overlap(spec, poses, self.beliefs[o].spec, self.beliefs[o].samples)
                 for o in sorted(labels)
