@@ -95,20 +95,26 @@ class PlanningContext:
             self._volumes[name] = Volume.of_object(name, b.spec, b.samples, self.surface.top_z)
         return self._volumes[name]
 
-    def sweeps_into(self, name: str, poses: np.ndarray, avoid: Volume) -> bool:
-        """Whether object ``name`` standing at any of ``poses`` (N, 3) penetrates ``avoid``.
-        Where ``avoid`` is the samples of named objects (`objects_volume`: avoidVol in
-        Rearrange), each is tested in the plane and in height (`collision.objects_overlap`):
-        the same answer as placing the object's fcl shapes at every pose, which cost a
-        millisecond or more per test (nu_o holds hundreds to thousands of poses)."""
+    def meets_samples(self, name: str, poses: np.ndarray, others: Iterable[str]) -> bool:
+        """Whether object ``name`` standing at any of ``poses`` (N, 3) penetrates a sample of
+        one of ``others``: in the plane and in height (`collision.objects_overlap`), fcl's
+        answer without placing an fcl shape per pose (nu_o and the placement search hold
+        hundreds to thousands of poses)."""
         spec = self.beliefs[name].spec
-        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        return any(
+            objects_overlap(spec, poses, self.beliefs[o].spec, self.beliefs[o].samples)
+            for o in others
+        )
+
+    def sweeps_into(self, name: str, poses: np.ndarray, avoid: Volume) -> bool:
+        """Whether object ``name`` standing at any of ``poses`` (N, 3) penetrates ``avoid``:
+        `meets_samples` where ``avoid`` is the samples of named objects (`objects_volume`:
+        avoidVol in Rearrange), fcl for any other volume."""
         labels = avoid.labels
         if self._sums.get(labels) is avoid:  # `objects_volume(labels)` itself
-            return any(
-                objects_overlap(spec, poses, self.beliefs[o].spec, self.beliefs[o].samples)
-                for o in sorted(labels)
-            )
+            return self.meets_samples(name, poses, sorted(labels))
+        spec = self.beliefs[name].spec
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         return Volume.of_object(name, spec, poses, self.surface.top_z).intersects(avoid)
 
     def samples_facing(self, name: str, heading: float) -> np.ndarray:

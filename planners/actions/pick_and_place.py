@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from clutter_gym.model.collision import Volume, objects_overlap
+from clutter_gym.model.collision import Volume
 from clutter_gym.model.herb import HandCommand
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.trajectory import Segment, Trajectory
@@ -104,14 +104,9 @@ def _free_placements(
 
 def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: list[str]) -> bool:
     """Whether the object at any of ``placed`` overlaps a sample of one of ``others``
-    (`collision.objects_overlap`: exact, in the plane and in height; poses far from an
-    object's samples are skipped before any shape is compared)."""
+    (`PlanningContext.meets_samples`)."""
     with ctx.stats.timed("placement"):
-        spec = ctx.beliefs[name].spec
-        return any(
-            objects_overlap(spec, placed, ctx.beliefs[o].spec, ctx.beliefs[o].samples)
-            for o in others
-        )
+        return ctx.meets_samples(name, placed, others)
 
 
 def _carry(
