@@ -1,5 +1,5 @@
-"""The actions' arm (planners/actions/arm.py) in the shelf: which IK solution it takes, and a
-GoTo that backs the hand out of a narrow pocket."""
+"""The actions' arm (planners/actions/arm.py): which IK solution it takes, straight lines traced
+from either end, and a GoTo that backs the hand out of a narrow pocket."""
 
 from __future__ import annotations
 
@@ -154,6 +154,69 @@ def test_a_backed_out_line_is_free_between_its_waypoints() -> None:
     other = arm._backed_out(goal, free)
     assert other is None or not np.array_equal(other, line)
     assert other is None or all(free(q) for q in interpolate(other, ARM_CHECK_STEP))
+
+
+#: A level hand pushed 0.3 m at -45 deg over the table, (hand_base x, y) where it stops: the
+#: solution nearest the home pose there leaves its branch on the way back, the start's does not.
+FORWARD_ONLY = (0.7, -0.5, -45.0)
+
+
+def push_line(
+    surface: Surface, x: float, y: float, heading_deg: float, length: float = 0.3
+) -> tuple[np.ndarray, ...]:
+    heading = np.radians(heading_deg)
+    end_xy = np.array([x, y])
+    start_xy = end_xy - length * np.array([np.cos(heading), np.sin(heading)])
+    z = surface.top_z + 0.075
+    return hand_pose(start_xy, heading, z), hand_pose(end_xy, heading, z)
+
+
+def test_a_line_the_ends_solution_cannot_trace_back_is_traced_from_the_start() -> None:
+    arm = make_arm(TABLE)
+    free = arm.free_check(Volume(), HAND)
+    start, end = push_line(TABLE, *FORWARD_ONLY)
+    q_end = arm.solve(end, free)
+    assert q_end is not None
+    assert arm.straight(q_end, start, free) is None  # the case the forward trace is for
+    path = arm.line(q_end, start, end, free)
+    assert path is not None
+    poses = np.array([arm.kinematics.fk_tcp(q) for q in path])
+    np.testing.assert_allclose(poses[0], start, atol=1e-6)
+    np.testing.assert_allclose(poses[-1], end, atol=1e-3)
+    direction = (end[:3, 3] - start[:3, 3]) / np.linalg.norm(end[:3, 3] - start[:3, 3])
+    offsets = poses[:, :3, 3] - start[:3, 3]
+    off_line = offsets - np.outer(offsets @ direction, direction)
+    assert np.abs(off_line).max() < 1e-3  # straight, and the hand level throughout
+    np.testing.assert_allclose(
+        poses[:, :3, :3], np.broadcast_to(end[:3, :3], (len(path), 3, 3)), atol=1e-3
+    )
+    assert np.abs(np.diff(path, axis=0)).max() <= 0.3
+    assert all(free(q) for q in path)
+    assert arm.line(q_end, start, end, free, lambda q: False) is None  # the start must be free
+
+
+def test_in_the_shelf_a_line_is_not_traced_from_a_start_with_the_elbow_inside() -> None:
+    """A hand pushed 0.2 m toward the right wall, deep in the shelf: the line exists from the
+    start's solution, whose elbow stands in the shelf, where GoTo does not bring the arm."""
+    arm = make_arm(SHELF)
+    free = arm.free_check(Volume(), HAND)
+    start, end = push_line(SHELF, 0.65, -0.2, -90.0, length=0.2)
+    q_end, q_start = arm.solve(end, free), arm.solve(start, free)
+    assert q_end is not None and q_start is not None
+    assert arm.straight(q_end, start, free) is None
+    assert elbow_in_shelf(arm, q_start) and arm.straight(q_start, end, free) is not None
+    assert arm.line(q_end, start, end, free) is None
+
+
+def test_a_line_traced_back_from_the_end_is_kept() -> None:
+    arm = make_arm(TABLE)
+    free = arm.free_check(Volume(), HAND)
+    start, end = push_line(TABLE, 0.8, -0.4, -45.0)
+    q_end = arm.solve(end, free)
+    assert q_end is not None
+    back = arm.straight(q_end, start, free)
+    assert back is not None
+    np.testing.assert_array_equal(arm.line(q_end, start, end, free), back[::-1])
 
 
 def distance_to(arm: Arm, obstacles: Volume, q: np.ndarray) -> float:

@@ -214,13 +214,19 @@ class Arm:
         through the opening: all seven approaches one shelf scene lost (no path in 50000
         evaluations either) went to postures with the elbow in the opening, and for three of
         those poses GoTo reached other solutions, with the elbow in front."""
-        interior = self.surface.interior
-        if interior is None or not len(solutions):
+        if not len(solutions):
             return solutions
+        return solutions[np.argsort(self._elbow_inside(solutions), kind="stable")]
+
+    def _elbow_inside(self, qs: np.ndarray) -> np.ndarray:
+        """Which configurations (N, 7) stand with the elbow within its radius of the surface's
+        interior (none on an open surface)."""
+        interior = self.surface.interior
+        if interior is None:
+            return np.zeros(len(qs), dtype=bool)
         low, high = np.array(interior).T
-        elbows = self.kinematics.elbow_points(solutions)
-        inside = np.all((elbows > low - ELBOW_RADIUS) & (elbows < high + ELBOW_RADIUS), axis=1)
-        return solutions[np.argsort(inside, kind="stable")]
+        elbows = self.kinematics.elbow_points(qs)
+        return np.all((elbows > low - ELBOW_RADIUS) & (elbows < high + ELBOW_RADIUS), axis=1)
 
     def line_heights(self, start_xy: np.ndarray, end_xy: np.ndarray, heading: float) -> list[float]:
         """TCP heights above the support to try, lowest first (`PUSH_HEIGHT`; §2.2.1: objects
@@ -254,6 +260,32 @@ class Arm:
         n = max(2, math.ceil(distance / WAYPOINT_SPACING) + 1)
         with self.stats.timed("ik"):
             return self.kinematics.cartesian_path(q_start, target, n, accept=accept)
+
+    def line(
+        self,
+        q_end: np.ndarray,
+        start: np.ndarray,
+        end: np.ndarray,
+        free: Free,
+        free_at_start: Free | None = None,
+    ) -> np.ndarray | None:
+        """A straight TCP line from ``start`` to ``end`` (4x4), rows from start to end, or None:
+        traced back from ``q_end`` (an IK solution at ``end``), else forward from the start's
+        IK solution. The end's solution nearest the home pose can leave its branch partway (a
+        wrist or j3 limit) where the start's stays on one: of the 71 lines a lone pop-tart box's
+        push-grasps traced back in vain, 48 were straight from the start. In an enclosed
+        surface a start with the elbow in the interior is not taken: there the end's line
+        had failed, and GoTo found no way in to any of the 24 such starts one shelf scene
+        offered (`_ordered`). ``free_at_start`` (default ``free``) must also take the first
+        configuration."""
+        first = free if free_at_start is None else free_at_start
+        back = self.straight(q_end, start, free)
+        if back is not None and first(back[-1]):
+            return back[::-1].copy()
+        q_start = self.solve(start, first)
+        if q_start is None or self._elbow_inside(q_start[None])[0]:
+            return None
+        return self.straight(q_start, end, free)
 
     # -- GoTo ------------------------------------------------------------------------------------
     def goto(

@@ -144,14 +144,16 @@ def hand_in(
     why = "no collision-free IK solution where the hand stops"
     for height in heights:
         z = ctx.surface.top_z + height
-        q_end = arm.solve(hand_pose(end_xy, heading, z), free)
+        end = hand_pose(end_xy, heading, z)
+        q_end = arm.solve(end, free)
         if q_end is None:
             continue
-        back = arm.straight(q_end, hand_pose(start_xy, heading, z), free)
-        if back is None:
+        path = arm.line(q_end, hand_pose(start_xy, heading, z), end, free)
+        if path is None:
             why = "the straight push is out of reach or hits avoidVol"
             continue
-        push = Segment("push", back[::-1].copy(), hand)
+        q_end = path[-1]
+        push = Segment("push", path, hand)
         if arm.motion_free((push,), avoid):
             break
         why = "the arm hits avoidVol during the push"

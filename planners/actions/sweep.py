@@ -406,14 +406,8 @@ def _straight_sweep(
     q_end = arm.solve(end, clear)
     if q_end is None:
         return "no collision-free IK solution at the end of the sweep"
-    back = arm.straight(q_end, start, clear)
-    if back is not None and at_start(back[-1]):
-        return back[::-1].copy()
-    q_start = arm.solve(start, at_start)
-    forward = None if q_start is None else arm.straight(q_start, end, clear)
-    if forward is None:
-        return "the straight sweep is out of reach or hits avoidVol"
-    return forward
+    path = arm.line(q_end, start, end, clear, at_start)
+    return "the straight sweep is out of reach or hits avoidVol" if path is None else path
 
 
 def _reached(
