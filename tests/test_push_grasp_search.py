@@ -313,6 +313,37 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     assert again == outcomes(context(), goals[1])
 
 
+def test_where_the_step_after_a_push_fails_the_next_offset_is_tried_before_another_aperture(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A push that passes at one lateral offset may still fail at what follows it (the
+    release, lift or placement) where the next offset's would not: the search goes on over
+    the offsets of that heading and aperture before it turns to another aperture."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _scene_context(("can", "soda_can", (0.70, -0.25, 0.0)))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
+    away = AwayFrom(Volume.of_box("ngr", centre, (0.1, 0.1, 0.2), 0.0))
+    asked: list[dict[str, float]] = []
+    release = push_grasp.pick_up_or_release
+
+    def refuse_the_first(*args: object) -> object:
+        details = cast(dict[str, float], args[-1])
+        asked.append(details)
+        if len(asked) == 1:
+            return Failure("can", "push-grasp", "refused")
+        return release(*args)
+
+    monkeypatch.setattr(push_grasp, "pick_up_or_release", refuse_the_first)
+    monkeypatch.setattr(push_grasp, "place", lambda *a: Failure("can", "push-grasp", "no place"))
+    found = push_grasp.push_grasp(ctx, arm, "can", away, ctx.objects_volume([]))
+    first = next(o for o in found if isinstance(o, ActionResult))
+    refused = asked[0]
+    assert first.details["heading_deg"] == refused["heading_deg"]
+    assert first.details["aperture_m"] == refused["aperture_m"]
+    assert first.details["offset_m"] != refused["offset_m"]
+
+
 def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

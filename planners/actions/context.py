@@ -20,12 +20,9 @@ from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, swee
 from planners.uncertainty import ObjectBelief
 
 if TYPE_CHECKING:
-    from planners.actions.hand_in import HandIn
-    from planners.actions.push_grasp import PlannedPush
-    from planners.actions.results import Failure
+    from planners.actions.push_grasp import HandInSearch, PlannedPush
     from planners.actions.sweep import SweepEvolution
 
-    HandInSearch = tuple[Volume, tuple[Failure, ...], tuple[HandIn, dict[str, float]] | None]
 
 STABLE_MARGIN = 0.01  # m: in the shelf, the footprint stays this far inside the walls
 TABLE_EDGE_MARGIN = 0.05  # m: on the table, the centre of mass stays this far from the edge
@@ -70,7 +67,7 @@ class PlanningContext:
         #: a push is the same under every parent candidate that asks to move the object.
         self.pushes: dict[tuple[str, float, float, float], np.ndarray] = {}
         #: Push-grasp hand motions by object, action, heading, aperture and avoidVol, with
-        #: the failures met on the way (`push_grasp._over_offsets_once`).
+        #: the failures met on the way (`push_grasp.HandInSearch`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}
         #: Push-grasps by object, heading and aperture, one per lateral offset (None where
         #: the capture region misses a sample): `push_grasp._plan_push`.

@@ -38,6 +38,8 @@ HEADING_REFINE = 3
 OFFSET_STEP = 0.01  # m between the lateral offsets tried (the paper's "user defined step")
 NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
 MISSES_SAMPLES = "the capture region misses some uncertainty samples"
+PushedOrFailure = tuple[HandIn, dict[str, float]] | Failure
+"""A push-grasp's hand motion with its parameters, or why one lateral offset has none."""
 
 
 def push_grasp(
@@ -62,12 +64,16 @@ def push_grasp(
         if budget <= 0:
             return
         for aperture in apertures:
-            pushed = yield from _over_offsets_once(ctx, arm, name, avoid, action, heading, aperture)
-            if pushed is None:
-                continue
-            finishes = _finishes(ctx, arm, name, goal, avoid, action, *pushed)
-            found = yield from _counted(finishes, budget)
-            budget -= found
+            found = 0
+            for pushed in _hand_ins(ctx, arm, name, avoid, action, heading, aperture):
+                if isinstance(pushed, Failure):
+                    yield pushed
+                    continue
+                finishes = _finishes(ctx, arm, name, goal, avoid, action, *pushed)
+                found = yield from _counted(finishes, budget)
+                budget -= found
+                if found:
+                    break
             if found:
                 break  # the next candidate pushes from another direction
 
@@ -141,7 +147,35 @@ def _finishes(
         yield place(ctx, arm, name, goal, avoid, moved, details)
 
 
-def _over_offsets_once(
+class HandInSearch:
+    """`_over_offsets` for one (object, action, heading, aperture, avoidVol), searched once per
+    plan and only as far as asked: its checks (capture, the hand's overlap, IK, the arm's
+    motion, nu_o against avoidVol) never depend on G, so every parent candidate that asks to
+    move the object with the same avoidVol (`PlanningContext.objects_volume`, one object per
+    set of names) reads what an earlier one found, failures too (for blocked_by), and goes on
+    where it stopped. avoidVol is kept with the search: its id stays its own while it lives."""
+
+    def __init__(self, avoid: Volume, search: Iterator[PushedOrFailure]) -> None:
+        self.avoid = avoid
+        self._search: Iterator[PushedOrFailure] | None = search
+        self._found: list[PushedOrFailure] = []
+
+    def __iter__(self) -> Iterator[PushedOrFailure]:
+        k = 0
+        while True:
+            if k == len(self._found):
+                if self._search is None:
+                    return
+                item = next(self._search, None)
+                if item is None:
+                    self._search = None
+                    return
+                self._found.append(item)
+            yield self._found[k]
+            k += 1
+
+
+def _hand_ins(
     ctx: PlanningContext,
     arm: Arm,
     name: str,
@@ -149,28 +183,16 @@ def _over_offsets_once(
     action: str,
     heading: float,
     aperture: float,
-) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
-    """`_over_offsets`, searched once per plan: its checks (capture, the hand's overlap, IK,
-    the arm's motion, nu_o against avoidVol) depend on the object, the heading, the aperture
-    and avoidVol, never on G, so every parent candidate that asks to move the object with the
-    same avoidVol (`PlanningContext.objects_volume`, one object per set of names) reuses the
-    answer; its failures are yielded again, for blocked_by."""
+) -> Iterator[PushedOrFailure]:
+    """`_over_offsets` through the plan's `HandInSearch` for these parameters."""
     key = (name, action, heading, aperture, id(avoid))
-    cached = ctx.hand_ins.get(key)
-    if cached is not None:
-        yield from cached[1]
-        return cached[2]
-    failures: list[Failure] = []
-    search = _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
-    while True:
-        try:
-            failure = next(search)
-        except StopIteration as done:
-            # avoidVol is kept with the answer: its id stays its own while the entry lives.
-            ctx.hand_ins[key] = (avoid, tuple(failures), done.value)
-            return done.value
-        failures.append(failure)
-        yield failure
+    search = ctx.hand_ins.get(key)
+    if search is None:
+        search = HandInSearch(
+            avoid, _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
+        )
+        ctx.hand_ins[key] = search
+    return iter(search)
 
 
 def _over_offsets(
@@ -181,18 +203,20 @@ def _over_offsets(
     action: str,
     heading: float,
     aperture: float,
-) -> Generator[Failure, None, tuple[HandIn, dict[str, float]] | None]:
-    """The push at this heading and aperture at the first lateral offset (`lateral_offsets`)
-    that passes every check; the failures on the way are yielded. A failure at one offset does
-    not end the search: a hand shifted by a centimetre may clear a neighbour or find IK. The
-    capture and the hand's overlap where it stops, which rule out most offsets, are decided
-    for all offsets at once before any offset pays for IK."""
+) -> Iterator[PushedOrFailure]:
+    """The pushes at this heading and aperture, one per lateral offset (`lateral_offsets`,
+    middle first), that pass every check, with the failures on the way. A failure at one
+    offset does not end the search: a hand shifted by a centimetre may clear a neighbour or
+    find IK; nor does a push that passes, since what the action does next (lift, release,
+    place) may fail there and not at the next offset. The capture and the hand's overlap where
+    it stops, which rule out most offsets, are decided for all offsets at once before any
+    offset pays for IK."""
     belief = ctx.beliefs[name]
     region = ctx.push_region(belief.spec.footprint, aperture)
     offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
     if not len(offsets):
         yield Failure(name, action, MISSES_SAMPLES)
-        return None
+        return
     pushes = ctx.push_plans.get((name, heading, aperture))
     if pushes is None:  # the samples and the region alone decide them: once per plan
         with ctx.stats.timed("capture"):
@@ -225,10 +249,7 @@ def _over_offsets(
                 outcome = _push_at(ctx, arm, name, avoid, action, push)
             if isinstance(outcome, Failure) and outcome.blocker:
                 ctx.blocked_hands[_hand_key(name, push)] = (outcome.reason, outcome.blocker)
-        if not isinstance(outcome, Failure):
-            return outcome
         yield outcome
-    return None
 
 
 def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
