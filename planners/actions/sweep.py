@@ -396,11 +396,10 @@ def _straight_sweep(
     end_xy: np.ndarray,
     free: tuple[Free, Free],
 ) -> np.ndarray | str:
-    """The straight hand line from start to end, or why there is none: every configuration
-    clear of avoidVol, the first one also of the object's samples (`_clearances`). Traced back
-    from an IK solution at the end, then forward from one at the start: a long sweep across
-    the body can leave the branch of one end's solution (a wrist limit) or start inside the
-    object, yet be straight from the other end."""
+    """The straight hand line from start to end (`Arm.line`: from either end), or why there is
+    none: every configuration clear of avoidVol, the first one also of the object's samples
+    (`_clearances`; a line traced back can end with the arm inside the object, so it is then
+    traced from the start)."""
     clear, at_start = free
     start, end = (hand_pose(xy, plan.approach, plan.z) for xy in (start_xy, end_xy))
     q_end = arm.solve(end, clear)
