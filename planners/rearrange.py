@@ -229,11 +229,13 @@ UNREACHABLE_START = (
 
 @dataclass(frozen=True)
 class _Candidate:
-    """An action's result with its transit, the trajectory both make, their volume and the
-    objects it penetrates that must be moved first (besides those already to be moved)."""
+    """An action's result with its transit (and its approach when it executes first), the
+    trajectory both make, their volume and the objects it penetrates that must be moved first
+    (besides those already to be moved)."""
 
     result: ActionResult
     transit: Trajectory | None
+    approach: Trajectory | None
     tau: Trajectory
     volume: Volume
     penetrated: tuple[str, ...]
@@ -302,30 +304,57 @@ class _Search:
         ctx = self.ctx
         ctx.stats.planning_steps += 1
         ctx.check_budget()
-        avoid_vol = ctx.objects_volume(avoid)
         for action in self.actions:
-            # A candidate that needs two or more objects moved first waits until the action
-            # has offered its other candidates: one that needs a single object moved is a
-            # shorter plan to search (§2.2.6), and the wait costs only what the action would
-            # compute anyway if the first candidate failed.
-            deferred: list[_Candidate] = []
-            for outcome in ACTIONS[action](ctx, self.arm, o, goal, avoid_vol):
-                if isinstance(outcome, Failure):
-                    ctx.failures.record(outcome)
-                    continue
-                candidate = self._assess(outcome, o, move, avoid, avoid_vol, r_next, depth)
-                if candidate is None:
-                    continue
-                if len(candidate.penetrated) > 1:
-                    deferred.append(candidate)
-                    continue
+            plan = self._by_action(action, o, goal, ngr, move, avoid, r_next, depth)
+            if plan is not None:
+                return plan
+        return None
+
+    def _by_action(
+        self,
+        action: str,
+        o: str,
+        goal: Goal,
+        ngr: Volume,
+        move: tuple[str, ...],
+        avoid: tuple[str, ...],
+        r_next: NextStart | None,
+        depth: int,
+    ) -> list[PlanStep] | None:
+        """Rearrange's loop over one action's candidates, the first
+        `PlannerSettings.candidates_per_action` of them that the arm can get to: a candidate
+        whose transit or approach GoTo finds no path takes no slot, so that an action whose
+        first results are out of the robot's way (on the shelf, often all three) still offers
+        ones it can execute. A candidate that needs two or more objects moved first waits
+        until the action has offered its others: one that needs a single object moved is a
+        shorter plan to search (§2.2.6), and the wait costs only what the action would compute
+        anyway if the first candidate failed."""
+        ctx = self.ctx
+        avoid_vol = ctx.objects_volume(avoid)
+        deferred: list[_Candidate] = []
+        slots = ctx.settings.candidates_per_action
+        for outcome in ACTIONS[action](ctx, self.arm, o, goal, avoid_vol):
+            if isinstance(outcome, Failure):
+                ctx.failures.record(outcome)
+                continue
+            candidate = self._assess(outcome, o, move, avoid, avoid_vol, r_next)
+            if candidate is None:
+                continue
+            slots -= 1
+            if depth + len(move) + len(candidate.penetrated) > self.max_depth:
+                pass  # a longer plan than this iteration allows (the empty move_next passes)
+            elif len(candidate.penetrated) > 1:
+                deferred.append(candidate)
+            else:
                 plan = self._descend(candidate, o, ngr, move, avoid, depth)
                 if plan is not None:
                     return plan
-            for candidate in sorted(deferred, key=lambda c: len(c.penetrated)):
-                plan = self._descend(candidate, o, ngr, move, avoid, depth)
-                if plan is not None:
-                    return plan
+            if slots == 0:
+                break
+        for candidate in sorted(deferred, key=lambda c: len(c.penetrated)):
+            plan = self._descend(candidate, o, ngr, move, avoid, depth)
+            if plan is not None:
+                return plan
         return None
 
     def _assess(
@@ -336,10 +365,10 @@ class _Search:
         avoid: tuple[str, ...],
         avoid_vol: Volume,
         r_next: NextStart | None,
-        depth: int,
     ) -> _Candidate | None:
-        """One candidate's transit and FindPenetrated; None when it has no transit or needs
-        more objects moved than this iteration allows."""
+        """One candidate's transit, FindPenetrated and, when it leaves nothing to move first
+        (the plan's first action), its approach; None when the transit or the approach finds
+        no path."""
         ctx = self.ctx
         transit = self._transit(o, result, avoid, avoid_vol, r_next)
         if r_next is not None and transit is None:
@@ -361,9 +390,12 @@ class _Search:
                 if others:
                     penetrated = vol.penetrated(ctx.objects_volume(others))
         new = tuple(sorted(penetrated - set(move)))
-        if depth + len(move) + len(new) > self.max_depth:
-            return None  # a longer plan than this iteration allows (the empty move_next passes)
-        return _Candidate(result, transit, tau, vol, new)
+        approach = None
+        if not move and not new:
+            approach = self._approach(tau)
+            if approach is None:
+                return None
+        return _Candidate(result, transit, approach, tau, vol, new)
 
     def _descend(
         self,
@@ -374,15 +406,12 @@ class _Search:
         avoid: tuple[str, ...],
         depth: int,
     ) -> list[PlanStep] | None:
-        """The recursive calls that clear what the candidate penetrates (Algorithm 1), or its
-        approach when it penetrates nothing; None to try the next candidate."""
+        """The recursive calls that clear what the candidate penetrates (Algorithm 1), or the
+        candidate with its approach when it penetrates nothing; None to try the next one."""
         result, transit, tau = candidate.result, candidate.transit, candidate.tau
         move_next = move + candidate.penetrated
         if not move_next:
-            approach = self._approach(tau)
-            if approach is None:
-                return None
-            return [PlanStep(result, approach, transit, ngr, depth)]
+            return [PlanStep(result, candidate.approach, transit, ngr, depth)]
         ngr_next = ngr + candidate.volume
         avoid_next = avoid + (o,)
         start = (tau.start, tau.segments[0].hand)

@@ -7,7 +7,7 @@ import importlib
 import math
 from collections import Counter
 from types import SimpleNamespace
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import pytest
@@ -301,16 +301,23 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
             for o in found
         ]
 
+    searched: list[tuple[float, float]] = []  # (heading, aperture) of each new search
+    search = push_grasp._over_offsets
+
+    def recorded(*args: Any) -> Any:
+        searched.append(args[-2:])
+        return search(*args)
+
+    monkeypatch.setattr(push_grasp, "_over_offsets", recorded)
     ctx = context()
     first = outcomes(ctx, goals[0])
     assert any(isinstance(o, tuple) for o in first) and any(isinstance(o, str) for o in first)
-    searches = []
-    search = push_grasp._over_offsets
-    monkeypatch.setattr(push_grasp, "_over_offsets", lambda *a: searches.append(1) or search(*a))
+    before = len(searched)
     again = outcomes(ctx, goals[1])
-    assert searches == []
-    monkeypatch.setattr(push_grasp, "_over_offsets", search)
+    assert len(set(searched)) == len(searched)  # none searched twice in one plan
+    reusing, before = len(searched) - before, len(searched)
     assert again == outcomes(context(), goals[1])
+    assert reusing < len(searched) - before  # a fresh plan searches what the second goal reused
 
 
 def test_where_the_step_after_a_push_fails_the_next_offset_is_tried_before_another_aperture(
@@ -517,7 +524,6 @@ def test_a_sweep_starts_with_the_arm_clear_of_the_object_it_sweeps() -> None:
     the first IK solution at the start often puts the elbow in the box (two of the four
     sweeps found here did before the start was checked against the box)."""
     ctx = _box_context()
-    ctx.settings = dataclasses.replace(ctx.settings, candidates_per_action=10)
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
     centre = np.array([0.75, -0.20, TABLE.top_z + 0.1])
     goal = AwayFrom(Volume.of_box("ngr", centre, (0.25, 0.25, 0.2), 0.0))

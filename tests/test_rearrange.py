@@ -399,7 +399,7 @@ def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
         self: _Search, result: ActionResult, o: str, move: tuple[str, ...], *_: object
     ) -> _Candidate:
         new = tuple(m for m in penetrates[o][int(result.details["k"])] if m not in move)
-        return _Candidate(result, None, still, Volume(), new)
+        return _Candidate(result, None, None if new else still, still, Volume(), new)
 
     def descend(self: _Search, candidate: _Candidate, o: str, *rest: Any) -> Any:
         searched.append((o, candidate.penetrated))
@@ -417,6 +417,57 @@ def test_a_candidate_that_needs_two_objects_moved_waits_for_one_that_needs_one(
     assert searched[0] == ("can", ("a",))
     assert ("can", ("a", "b")) not in searched  # the shorter one led to a plan
     assert [(s.result.obj, s.result.details["k"]) for s in steps] == [("a", 0), ("can", 1)]
+
+
+@pytest.mark.parametrize("second", ["too deep", "complete"])
+def test_only_candidates_the_arm_can_get_to_take_an_actions_slots(
+    second: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With one slot per action: a first candidate whose transit or approach finds no path
+    takes none, so the second is searched; once a candidate the arm can get to has taken the
+    slot (here one that needs an object moved in the pass that moves none) the action offers
+    no more, even a complete one."""
+    ctx = _three_cans()
+    ctx.settings = replace(ctx.settings, candidates_per_action=1)
+    still = Trajectory((Segment("still", np.zeros((2, 7)), HandCommand()),))
+    assessed: list[int] = []
+
+    def action(ctx: object, arm: object, name: str, *_: object) -> Iterator[ActionResult]:
+        for k in range(3):
+            yield ActionResult("fake", name, still, np.zeros((1, 1, 3)), False, {"k": k})
+
+    def assess(self: _Search, result: ActionResult, *_: object) -> _Candidate | None:
+        k = int(result.details["k"])
+        assessed.append(k)
+        if k == 0:
+            return None  # no path to it
+        if k == 1 and second == "too deep":
+            return _Candidate(result, None, None, still, Volume(), ("a",))
+        return _Candidate(result, None, still, still, Volume(), ())
+
+    monkeypatch.setitem(rearrange_module.ACTIONS, "fake", action)
+    monkeypatch.setattr(_Search, "_assess", assess)
+    search = _Search(ctx, None, hm.RIGHT_ARM_HOME, ("fake",))  # type: ignore[arg-type]
+    steps = search.rearrange("can", Retrieve(), Volume(), (), (), None, 0)
+    assert assessed == [0, 1]
+    if second == "too deep":
+        assert steps is None
+    else:
+        assert steps is not None and steps[0].result.details["k"] == 1
+
+
+@pytest.mark.parametrize("reaches_from_start", [False, True])
+def test_a_first_action_the_robot_cannot_reach_is_no_candidate(reaches_from_start: bool) -> None:
+    """A candidate that moves nothing first executes first: its approach GoTo is part of
+    assessing it, and where GoTo finds no path it is no candidate (and takes no slot)."""
+    search, arm = _transit_search(reaches_from_start)
+    candidate = search._assess(_moved("can"), "can", (), ("a", "b"), Volume(), None)
+    assert [k for k, _ in arm.requests] == ["from start"]
+    if reaches_from_start:
+        assert candidate is not None and candidate.approach is not None
+        assert not candidate.penetrated
+    else:
+        assert candidate is None
 
 
 class _RecordingArm:

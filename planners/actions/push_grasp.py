@@ -55,27 +55,39 @@ def push_grasp(
     if why:
         yield Failure(name, action, why)
         return
-    budget = ctx.settings.candidates_per_action
     if action == "pickup":
-        budget -= yield from _counted(static_grasp(ctx, arm, name, goal, avoid), budget)
+        yield from static_grasp(ctx, arm, name, goal, avoid)
     apertures = aperture_order(spec.footprint, spec.liftable)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
     for heading in _headings(ctx, arm, name, reach, avoid):
-        if budget <= 0:
-            return
         for aperture in apertures:
-            found = 0
-            for pushed in _hand_ins(ctx, arm, name, avoid, action, heading, aperture):
-                if isinstance(pushed, Failure):
-                    yield pushed
-                    continue
-                finishes = _finishes(ctx, arm, name, goal, avoid, action, *pushed)
-                found = yield from _counted(finishes, budget)
-                budget -= found
-                if found:
-                    break
-            if found:
+            if (yield from _first_finished(ctx, arm, name, goal, avoid, action, heading, aperture)):
                 break  # the next candidate pushes from another direction
+
+
+def _first_finished(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: Goal,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+) -> Generator[Outcome, None, bool]:
+    """The finishes of the first lateral offset whose push and finish both pass (and the
+    failures on the way); whether there was one."""
+    for pushed in _hand_ins(ctx, arm, name, avoid, action, heading, aperture):
+        if isinstance(pushed, Failure):
+            yield pushed
+            continue
+        found = False
+        for outcome in _finishes(ctx, arm, name, goal, avoid, action, *pushed):
+            yield outcome
+            found |= isinstance(outcome, ActionResult)
+        if found:
+            return True
+    return False
 
 
 def _headings(
@@ -117,17 +129,6 @@ def lateral_offsets(
     middle = 0.5 * (low + high)
     k = np.arange(int((high - low) / (2 * step) + 1e-9) + 1)
     return middle + step * np.column_stack([k, -k]).ravel()[1:]
-
-
-def _counted(outcomes: Iterator[Outcome], limit: int) -> Generator[Outcome, None, int]:
-    """Yield ``outcomes`` until ``limit`` results; return how many results there were."""
-    found = 0
-    for outcome in outcomes:
-        if found >= limit:
-            break
-        yield outcome
-        found += isinstance(outcome, ActionResult)
-    return found
 
 
 def _finishes(

@@ -28,6 +28,8 @@ class PlannerSettings:
     # Sweep approaches within this of the shoulder-object line: all around, so the hand may
     # come in from the side and sweep an object toward the robot (the map prunes the rest).
     sweep_max_heading_deg: float = 180.0
+    # Candidates of one action a planning step searches below, counting only those the arm
+    # can get to (`rearrange._Search._by_action`); the actions themselves yield all they find.
     candidates_per_action: int = 3
     seed: int = 0
     # The point (x, y) the directions above are measured from: None for the right shoulder.

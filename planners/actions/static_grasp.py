@@ -50,8 +50,6 @@ def static_grasp(
     for aperture in sorted(push_grasp_apertures(spec.footprint), reverse=True):
         ctx.check_budget()
         yield from _at_aperture(ctx, arm, name, goal, avoid, action, aperture, found)
-        if len(found) >= ctx.settings.candidates_per_action:
-            return
 
 
 def _at_aperture(
@@ -115,8 +113,6 @@ def _at_aperture(
         yield result
         if isinstance(result, ActionResult):
             found.append(float(heading))
-            if len(found) >= ctx.settings.candidates_per_action:
-                return
 
 
 def _pick_up(

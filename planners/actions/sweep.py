@@ -58,16 +58,10 @@ def sweep(
     if not ctx.beliefs[name].spec.pushable:
         yield Failure(name, ACTION, "tips over when pushed")
         return
-    found = 0
     for angle, handedness in sweep_directions(ctx, arm.heading_origin, name):
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        for outcome in _sweep_at(ctx, arm, name, goal, avoid, angle, handedness):
-            yield outcome
-            if isinstance(outcome, ActionResult):
-                found += 1
-                if found >= ctx.settings.candidates_per_action:
-                    return
+        yield from _sweep_at(ctx, arm, name, goal, avoid, angle, handedness)
 
 
 @dataclass(frozen=True)
