@@ -62,8 +62,8 @@ def _at_aperture(
     aperture: float,
     found: list[float],
 ) -> Iterator[Outcome]:
-    """Static grasps at one aperture until ``found`` (extended here) holds enough headings
-    or `TSR_IK_TRIES` poses have paid for IK."""
+    """Static grasps at one aperture, each at a heading away from those in ``found``
+    (extended here), until `TSR_IK_TRIES` poses have paid for IK."""
     belief = ctx.beliefs[name]
     centre = belief.samples[0, :2]
     base = base_heading(arm.heading_origin, centre)
