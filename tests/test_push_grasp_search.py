@@ -490,6 +490,107 @@ def test_a_pose_whose_hand_meets_an_object_is_refused_after_one_check() -> None:
     assert reached >= 2
 
 
+def test_a_grasps_lift_and_carries_are_planned_once_for_every_goal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Pick-and-place after a push-grasp: the close, the lift and the carry to a placement do
+    not depend on G, so a second goal asking to move the object past the same avoidVol carries
+    it to no placement twice, and ends with what a fresh plan gives."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    pick_and_place = importlib.import_module("planners.actions.pick_and_place")
+
+    def context() -> PlanningContext:
+        return _scene_context(
+            ("can", "soda_can", (0.70, -0.25, 0.0)), ("bottle", "juice_bottle", (0.70, -0.14, 0.0))
+        )
+
+    centre = np.array([0.70, -0.30, TABLE.top_z + 0.1])
+    goals = [AwayFrom(Volume.of_box("ngr", centre, (s, s, 0.2), 0.0)) for s in (0.2, 0.3)]
+
+    def placed(ctx: PlanningContext, goal: AwayFrom) -> list[object]:
+        arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+        found = push_grasp.push_grasp(ctx, arm, "can", goal, ctx.objects_volume(["bottle"]))
+        return [
+            (o.details["heading_deg"], o.details["offset_m"], o.nu[-1, 0, :2].round(6).tolist())
+            for o in found
+            if isinstance(o, ActionResult) and o.action == "pick-and-place"
+        ]
+
+    carried: list[tuple[int, float, float]] = []  # (hand-in, shift) of every carry planned
+    carry = pick_and_place._carry
+
+    def recorded(*args: Any) -> Any:
+        carried.append((id(args[4]), *np.round(args[-1], 9)))
+        return carry(*args)
+
+    monkeypatch.setattr(pick_and_place, "_carry", recorded)
+    ctx = context()
+    first = placed(ctx, goals[0])
+    assert first  # the push alone leaves the can in the NGR: it is carried out
+    before = len(carried)
+    again = placed(ctx, goals[1])
+    assert again
+    assert len(set(carried)) == len(carried)  # no carry planned twice in one plan
+    reusing = len(carried) - before
+    assert again == placed(context(), goals[1])
+    assert reusing < len(carried) - before - reusing  # a fresh plan plans the carries reused
+
+
+@pytest.mark.parametrize("kind", ["poptart_box", "soda_can"])
+def test_a_pushs_pilot_is_its_nu_os_row_of_the_detected_pose(
+    kind: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The pilot a push-grasp tests against avoidVol before nu_o is nu_o's own row of the
+    detected pose, to the bit: a pilot in avoidVol is nu_o in avoidVol, so refusing the push
+    on it refuses nothing nu_o would have allowed."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _scene_context(("obj", kind, (0.70, -0.25, 0.4)))
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    asked: list[tuple[Any, Any]] = []
+
+    def captured(*args: Any) -> Failure:
+        asked.append((args[-2], args[-1]))
+        return Failure("obj", "push-grasp", "stopped by the test")
+
+    monkeypatch.setattr(push_grasp, "hand_in", captured)
+    goal = AwayFrom(Volume.of_box("ngr", np.array([0.7, -0.25, 0.8]), (0.3, 0.3, 0.1), 0.0))
+    for _ in push_grasp.push_grasp(ctx, arm, "obj", goal, Volume()):
+        if len(asked) == 10:
+            break
+    assert len(asked) >= 10
+    pushed = 0
+    for evolve, pilot in asked[:10]:
+        first = pilot()
+        nu = evolve()
+        assert first.shape == (len(nu), 1, 3)
+        np.testing.assert_array_equal(first[:, 0], nu[:, 0])
+        pushed += bool(np.ptp(first[:, 0, 0]) > 0.01)
+        assert pilot() is None  # nu_o itself is at hand from now on
+    assert pushed  # pushes that move the object, not only grasps where it stands
+
+
+def test_a_push_whose_detected_pose_sweeps_into_avoid_is_refused_before_nu_o() -> None:
+    """`hand_in` tests the pilot's poses first and simulates nu_o only where they pass."""
+    hand_in = importlib.import_module("planners.actions.hand_in")
+    ctx = _scene_context(
+        ("obj", "soda_can", (0.70, -0.25, 0.0)), ("wall", "soda_can", (0.8, -0.25, 0.0))
+    )
+    avoid = ctx.objects_volume(["wall"])
+    into = np.array([[[0.70, -0.25, 0.0]], [[0.78, -0.25, 0.0]]])
+    clear = np.array([[[0.70, -0.25, 0.0]], [[0.70, -0.30, 0.0]]])
+    simulated: list[bool] = []
+
+    def evolve() -> np.ndarray:
+        simulated.append(True)
+        return np.repeat(clear, 3, axis=1)
+
+    assert hand_in._clear_evolution(ctx, "obj", avoid, evolve, lambda: into) is None
+    assert not simulated
+    nu = hand_in._clear_evolution(ctx, "obj", avoid, evolve, lambda: clear)
+    assert nu is not None and simulated
+    assert hand_in._clear_evolution(ctx, "obj", avoid, lambda: into, lambda: None) is None
+
+
 def test_an_ik_answer_is_found_once_per_pose_obstacles_and_hand() -> None:
     """The actions ask for the same sweep or push start under every parent candidate: the same
     volume and hand give the same check, and a pose's answer under it costs no collision check

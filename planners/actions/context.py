@@ -20,6 +20,7 @@ from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, swee
 from planners.uncertainty import ObjectBelief
 
 if TYPE_CHECKING:
+    from planners.actions.pick_and_place import GraspToPlace
     from planners.actions.push_grasp import HandInSearch, PlannedPush
     from planners.actions.sweep import SweepEvolution
 
@@ -66,6 +67,8 @@ class PlanningContext:
         #: Push-grasp evolutions nu_o (world poses) by object, heading, aperture and offset:
         #: a push is the same under every parent candidate that asks to move the object.
         self.pushes: dict[tuple[str, float, float, float], np.ndarray] = {}
+        #: The detected pose's row of such an nu_o, simulated alone (`push_grasp._push_at`).
+        self.push_pilots: dict[tuple[str, float, float, float], np.ndarray] = {}
         #: Push-grasp hand motions by object, action, heading, aperture and avoidVol, with
         #: the failures met on the way (`push_grasp.HandInSearch`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}
@@ -76,6 +79,9 @@ class PlanningContext:
         #: avoidVol blocked, with (reason, that object): they fail again under every avoidVol
         #: that holds it (`push_grasp._blocked_before`), whatever else it holds.
         self.blocked_hands: dict[tuple[str, float, float, float], tuple[str, str]] = {}
+        #: Pick-and-place's close, lift and carries after a grasp, by the ids of the hand-in
+        #: and avoidVol (`pick_and_place.GraspToPlace`): they never depend on G.
+        self.grasps_to_place: dict[tuple[int, int], GraspToPlace] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
         self._stable: dict[str, np.ndarray] = {}
         #: Upright carries out of the shelf that found no path (`hand_in.FAILED_CARRIES`).

@@ -18,6 +18,12 @@ class Goal(Protocol):
         """A quick sufficient test of `accepts` for an object left standing at ``final``."""
         ...
 
+    def clearly_accepts_each(
+        self, ctx: PlanningContext, name: str, finals: np.ndarray
+    ) -> np.ndarray:
+        """`clearly_accepts` for each of K final states (K, M, 3) at once."""
+        ...
+
     def describe(self) -> str: ...
 
 
@@ -30,6 +36,11 @@ class Retrieve:
 
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         return False
+
+    def clearly_accepts_each(
+        self, ctx: PlanningContext, name: str, finals: np.ndarray
+    ) -> np.ndarray:
+        return np.zeros(len(finals), dtype=bool)
 
     def describe(self) -> str:
         return "in the hand"
@@ -45,6 +56,11 @@ class Anywhere:
 
     def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         return True
+
+    def clearly_accepts_each(
+        self, ctx: PlanningContext, name: str, finals: np.ndarray
+    ) -> np.ndarray:
+        return np.ones(len(finals), dtype=bool)
 
     def describe(self) -> str:
         return "anywhere"

@@ -34,6 +34,7 @@ from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 OUT_OF_REACH = "the reachability map rules out the hand on its way in"
+NU_INTO_AVOID = "the object's uncertainty sweeps into avoidVol"
 CLOSING_STAGES = 10
 """Orientations at which `closing` puts a box while the fingers close on it."""
 TURN_BAND = math.radians(50.0)
@@ -126,10 +127,14 @@ def hand_in(
     heading: float,
     profile: PushGraspProfile,
     evolve: Callable[[], np.ndarray],
+    pilot: Callable[[], np.ndarray | None] | None = None,
 ) -> HandIn | Failure:
     """The hand moves straight in, as low as the arm can hold it (`Arm.line_heights`), from
     ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
-    ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible)."""
+    ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible).
+    ``pilot()``, where given, is a few of nu_o's own poses, cheap to compute (None when nu_o
+    itself is at hand): tested against avoidVol first, they refuse the motion before nu_o is
+    simulated."""
     start_xy, end_xy = line
     why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
@@ -159,12 +164,30 @@ def hand_in(
         why = "the arm hits avoidVol during the push"
     else:
         return Failure(name, action, why)
-    nu = evolve()
-    if avoid.parts:  # an empty avoidVol (nothing to avoid) needs no swept volume
-        with ctx.stats.timed("volumes"):
-            if ctx.sweeps_into(name, nu, avoid):
-                return Failure(name, action, "the object's uncertainty sweeps into avoidVol")
+    nu = _clear_evolution(ctx, name, avoid, evolve, pilot)
+    if nu is None:
+        return Failure(name, action, NU_INTO_AVOID)
     return HandIn(push, q_end, end_xy, heading, z, nu, profile)
+
+
+def _clear_evolution(
+    ctx: PlanningContext,
+    name: str,
+    avoid: Volume,
+    evolve: Callable[[], np.ndarray],
+    pilot: Callable[[], np.ndarray | None] | None,
+) -> np.ndarray | None:
+    """nu_o, or None where it sweeps into avoidVol (the pilot's poses tested first)."""
+    if not avoid.parts:  # an empty avoidVol (nothing to avoid) needs no swept volume
+        return evolve()
+    first = None if pilot is None else pilot()
+    if first is not None:
+        with ctx.stats.timed("volumes"):
+            if ctx.sweeps_into(name, first, avoid):
+                return None
+    nu = evolve()
+    with ctx.stats.timed("volumes"):
+        return None if ctx.sweeps_into(name, nu, avoid) else nu
 
 
 def pick_up_or_release(

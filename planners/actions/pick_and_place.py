@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,9 +36,30 @@ ACTION = "pick-and-place"
 CARRY_LIFT = 0.15  # m: the object is carried this far above where it stood
 PLACEMENT_SPACING = 0.05  # m between candidate placements and between carried-volume poses
 PLACEMENT_TRIES = 6  # placements in G tried per grasp, nearest first
+PLACEMENT_CHUNK = 32
+"""Placements whose G test runs at once, nearest first: a grasp's first placements in G are
+mostly among its nearest few dozen, and one test of many poses costs little more than one."""
 PLACE_ABOVE = 0.01
 """m above where it was grasped that a carried object is let go: lowered all the way, an object
 that slipped a few mm in the fingers is pressed into the table and springs away when released."""
+
+
+Carry = tuple[tuple[Segment, ...], Volume]
+"""A carry's segments (carry, lower, release) and the carried object's volume."""
+
+
+@dataclass
+class GraspToPlace:
+    """What a grasp with one avoidVol gives pick-and-place before any placement: the close and
+    the lift (or why they fail), and the carries to the placements asked so far. None of it
+    depends on G, so every parent candidate that asks to move the object with this hand-in
+    (`push_grasp.HandInSearch` keeps them) reads it and only tests its own placements. The
+    hand-in and avoidVol are kept: their ids key the entry (`PlanningContext.grasps_to_place`)."""
+
+    moved: HandIn
+    avoid: Volume
+    held: tuple[np.ndarray, np.ndarray, np.ndarray] | Failure  # (turning, in hand, lift)
+    carries: dict[tuple[float, float], Carry | None] = field(default_factory=dict)
 
 
 def place(
@@ -55,30 +77,54 @@ def place(
     why = unfit(ctx.beliefs[name].spec, pushed=True, lifted=True)
     if why:  # the carry lifts it: the 5 kg dumbbell is pushed only
         return Failure(name, ACTION, why)
-    turning, in_hand = closing(ctx, name, moved)
-    if turned_into(ctx, name, turning, avoid):
-        return Failure(name, ACTION, TURNS_INTO_AVOID)
-    if not ctx.stays_stable(name, turning):
-        return Failure(name, ACTION, CLOSES_OFF_SURFACE)
-    if not fingers_close_free(ctx, arm, name, moved, avoid):
-        return Failure(name, ACTION, FINGERS_INTO_AVOID)
+    grasp = _grasp_to_place(ctx, arm, name, avoid, moved)
+    if isinstance(grasp.held, Failure):
+        return grasp.held
+    turning, in_hand, lifted = grasp.held
     closed = HandCommand(0.0, GRASP_CLOSURE)
-    free = arm.free_check(avoid, closed)
-    lift_to = hand_pose(moved.end_xy, moved.heading, moved.z + CARRY_LIFT)
-    lifted = arm.straight(moved.q_end, lift_to, free)
-    if lifted is None:
-        return Failure(name, ACTION, "no collision-free lift after the grasp")
     for shift, placed in _free_placements(ctx, name, goal, in_hand):
         ctx.check_budget()
-        carried = _carry(ctx, arm, name, avoid, moved, lifted, in_hand, shift)
+        key = (float(shift[0]), float(shift[1]))
+        if key not in grasp.carries:
+            grasp.carries[key] = _carry(ctx, arm, name, avoid, moved, lifted, in_hand, shift)
+        carried = grasp.carries[key]
         if carried is None:
             continue
         segments, volume = carried
-        grasp = Segment("close", moved.q_end[None].copy(), closed)
+        close = Segment("close", moved.q_end[None].copy(), closed)
         nu = np.concatenate([*through_close(moved.nu, turning, in_hand), placed[None]])
-        trajectory = Trajectory((moved.push, grasp, Segment("lift", lifted, closed), *segments))
+        trajectory = Trajectory((moved.push, close, Segment("lift", lifted, closed), *segments))
         return ActionResult(ACTION, name, trajectory, nu, False, details, volume)
     return Failure(name, ACTION, "no reachable placement out of the NGR")
+
+
+def _grasp_to_place(
+    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, moved: HandIn
+) -> GraspToPlace:
+    """The plan's `GraspToPlace` for this hand-in and avoidVol: close, then lift."""
+    key = (id(moved), id(avoid))
+    grasp = ctx.grasps_to_place.get(key)
+    if grasp is not None:
+        return grasp
+    turning, in_hand = closing(ctx, name, moved)
+    held: tuple[np.ndarray, np.ndarray, np.ndarray] | Failure
+    if turned_into(ctx, name, turning, avoid):
+        held = Failure(name, ACTION, TURNS_INTO_AVOID)
+    elif not ctx.stays_stable(name, turning):
+        held = Failure(name, ACTION, CLOSES_OFF_SURFACE)
+    elif not fingers_close_free(ctx, arm, name, moved, avoid):
+        held = Failure(name, ACTION, FINGERS_INTO_AVOID)
+    else:
+        free = arm.free_check(avoid, HandCommand(0.0, GRASP_CLOSURE))
+        lift_to = hand_pose(moved.end_xy, moved.heading, moved.z + CARRY_LIFT)
+        lifted = arm.straight(moved.q_end, lift_to, free)
+        if lifted is None:
+            held = Failure(name, ACTION, "no collision-free lift after the grasp")
+        else:
+            held = (turning, in_hand, lifted)
+    grasp = GraspToPlace(moved, avoid, held)
+    ctx.grasps_to_place[key] = grasp
+    return grasp
 
 
 def _free_placements(
@@ -87,19 +133,24 @@ def _free_placements(
     """At most `PLACEMENT_TRIES` (shift, placed poses) in G, nearest first, where the object
     stands clear of every other object. Placements are plentiful and the object is held at
     many poses, so G is decided by its quick sufficient test (axis-aligned bounds clear of
-    the NGR) and the other objects by bounding circles before any exact geometry."""
+    the NGR), `PLACEMENT_CHUNK` placements at a time, and the other objects by bounding
+    circles before any exact geometry."""
     others = sorted(set(ctx.beliefs) - {name})
     tried = 0
     with ctx.stats.timed("placement"):
         shifts = _placements(ctx, in_hand[0, :2])
-    for shift in shifts:
-        placed = translated(in_hand, shift)
-        if not goal.clearly_accepts(ctx, name, placed) or _meets_others(ctx, name, placed, others):
-            continue
-        tried += 1
-        if tried > PLACEMENT_TRIES:
-            return
-        yield shift, placed
+    for first in range(0, len(shifts), PLACEMENT_CHUNK):
+        chunk = shifts[first : first + PLACEMENT_CHUNK]
+        placed = np.repeat(in_hand[None], len(chunk), axis=0)
+        placed[:, :, :2] += chunk[:, None, :]
+        in_goal = goal.clearly_accepts_each(ctx, name, placed)
+        for k in np.flatnonzero(in_goal):
+            if _meets_others(ctx, name, placed[k], others):
+                continue
+            tried += 1
+            if tried > PLACEMENT_TRIES:
+                return
+            yield chunk[k], placed[k]
 
 
 def _meets_others(ctx: PlanningContext, name: str, placed: np.ndarray, others: list[str]) -> bool:
@@ -147,7 +198,7 @@ def _carry(
     return segments, carried
 
 
-def _placements(ctx: PlanningContext, centre: np.ndarray) -> list[np.ndarray]:
+def _placements(ctx: PlanningContext, centre: np.ndarray) -> np.ndarray:
     """Shifts from ``centre`` to points of a PLACEMENT_SPACING grid over the surface, nearest
     first (a short carry is a short, reachable motion)."""
     x0, x1, y0, y1 = ctx.surface.bounds
@@ -156,7 +207,7 @@ def _placements(ctx: PlanningContext, centre: np.ndarray) -> list[np.ndarray]:
     grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2) - centre
     distances = np.linalg.norm(grid, axis=1)
     order = np.argsort(distances, kind="stable")
-    return list(grid[order[distances[order] > PLACEMENT_SPACING / 2]])
+    return grid[order[distances[order] > PLACEMENT_SPACING / 2]]
 
 
 def _carried_volume(

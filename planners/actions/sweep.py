@@ -25,7 +25,7 @@ from planners.actions.grasp_geometry import (
     rise_height,
     translated,
 )
-from planners.actions.hand_in import NU_SPACING, OUT_OF_REACH
+from planners.actions.hand_in import NU_INTO_AVOID, NU_SPACING, OUT_OF_REACH
 from planners.actions.heuristics import sweep_directions
 from planners.actions.results import ActionResult, Failure, Outcome
 from planners.capture import SweepRegion, extreme_parameters
@@ -358,7 +358,7 @@ def _sweep_motion(
         return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
     with ctx.stats.timed("volumes"):
         if ctx.sweeps_into(name, nu, avoid):
-            return Failure(name, ACTION, "the object's uncertainty sweeps into avoidVol")
+            return Failure(name, ACTION, NU_INTO_AVOID)
     placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
     clear = arm.free_check(placed, hand, exact=True)
     back_xy = end_xy - SWEEP_RETREAT * frame.x_axis
