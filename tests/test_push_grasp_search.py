@@ -276,6 +276,13 @@ def test_a_box_is_swept_square_to_its_faces_a_can_along_the_grid(yaw: float) -> 
     assert len(squares & box) >= 2  # the hand reaches at least two of the faces
 
 
+def _can_beside_bottle() -> PlanningContext:
+    """A can with a juice bottle 11 cm to its left, at sigma2."""
+    return _scene_context(
+        ("can", "soda_can", (0.70, -0.25, 0.0)), ("bottle", "juice_bottle", (0.70, -0.14, 0.0))
+    )
+
+
 def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -283,11 +290,6 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
     not depend on G: a second goal asking to move the same object past the same avoidVol
     reuses it, meets the same failures, and ends with what a fresh search gives."""
     push_grasp = importlib.import_module("planners.actions.push_grasp")
-
-    def context() -> PlanningContext:
-        return _scene_context(
-            ("can", "soda_can", (0.70, -0.25, 0.0)), ("bottle", "juice_bottle", (0.70, -0.14, 0.0))
-        )
 
     centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
     goals = [AwayFrom(Volume.of_box("ngr", centre, (s, s, 0.2), 0.0)) for s in (0.1, 0.2)]
@@ -309,14 +311,14 @@ def test_a_push_grasps_hand_motion_is_searched_once_for_every_goal(
         return search(*args)
 
     monkeypatch.setattr(push_grasp, "_over_offsets", recorded)
-    ctx = context()
+    ctx = _can_beside_bottle()
     first = outcomes(ctx, goals[0])
     assert any(isinstance(o, tuple) for o in first) and any(isinstance(o, str) for o in first)
     before = len(searched)
     again = outcomes(ctx, goals[1])
     assert len(set(searched)) == len(searched)  # none searched twice in one plan
     reusing, before = len(searched) - before, len(searched)
-    assert again == outcomes(context(), goals[1])
+    assert again == outcomes(_can_beside_bottle(), goals[1])
     assert reusing < len(searched) - before  # a fresh plan searches what the second goal reused
 
 
@@ -499,11 +501,6 @@ def test_a_grasps_lift_and_carries_are_planned_once_for_every_goal(
     push_grasp = importlib.import_module("planners.actions.push_grasp")
     pick_and_place = importlib.import_module("planners.actions.pick_and_place")
 
-    def context() -> PlanningContext:
-        return _scene_context(
-            ("can", "soda_can", (0.70, -0.25, 0.0)), ("bottle", "juice_bottle", (0.70, -0.14, 0.0))
-        )
-
     centre = np.array([0.70, -0.30, TABLE.top_z + 0.1])
     goals = [AwayFrom(Volume.of_box("ngr", centre, (s, s, 0.2), 0.0)) for s in (0.2, 0.3)]
 
@@ -524,7 +521,7 @@ def test_a_grasps_lift_and_carries_are_planned_once_for_every_goal(
         return carry(*args)
 
     monkeypatch.setattr(pick_and_place, "_carry", recorded)
-    ctx = context()
+    ctx = _can_beside_bottle()
     first = placed(ctx, goals[0])
     assert first  # the push alone leaves the can in the NGR: it is carried out
     before = len(carried)
@@ -532,7 +529,7 @@ def test_a_grasps_lift_and_carries_are_planned_once_for_every_goal(
     assert again
     assert len(set(carried)) == len(carried)  # no carry planned twice in one plan
     reusing = len(carried) - before
-    assert again == placed(context(), goals[1])
+    assert again == placed(_can_beside_bottle(), goals[1])
     assert reusing < len(carried) - before - reusing  # a fresh plan plans the carries reused
 
 
