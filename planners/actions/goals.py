@@ -14,14 +14,11 @@ from planners.actions.context import PlanningContext
 class Goal(Protocol):
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool: ...
 
-    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
-        """A quick sufficient test of `accepts` for an object left standing at ``final``."""
-        ...
-
     def clearly_accepts_each(
         self, ctx: PlanningContext, name: str, finals: np.ndarray
     ) -> np.ndarray:
-        """`clearly_accepts` for each of K final states (K, M, 3) at once."""
+        """A quick sufficient test of `accepts` for an object left standing at each of K final
+        states (K, M, 3), all at once."""
         ...
 
     def describe(self) -> str: ...
@@ -33,9 +30,6 @@ class Retrieve:
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
         return held
-
-    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
-        return False
 
     def clearly_accepts_each(
         self, ctx: PlanningContext, name: str, finals: np.ndarray
@@ -52,9 +46,6 @@ class Anywhere:
     (`planners.actions.primitives`), whose outcome physics decides."""
 
     def accepts(self, ctx: PlanningContext, name: str, final: np.ndarray, held: bool) -> bool:
-        return True
-
-    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
         return True
 
     def clearly_accepts_each(
@@ -103,15 +94,11 @@ class AwayFrom:
             return True
         return not placed.intersects(self.ngr)
 
-    def clearly_accepts(self, ctx: PlanningContext, name: str, final: np.ndarray) -> bool:
-        """A quick sufficient test: stable, and every pose's axis-aligned bounds clear the
-        NGR in the top-view map (no exact geometry)."""
-        return bool(self.clearly_accepts_each(ctx, name, np.asarray(final).reshape(1, -1, 3))[0])
-
     def clearly_accepts_each(
         self, ctx: PlanningContext, name: str, finals: np.ndarray
     ) -> np.ndarray:
-        """`clearly_accepts` for each of K final states (K, M, 3) at once."""
+        """A quick sufficient test for each of K final states (K, M, 3): stable, and every
+        pose's axis-aligned bounds clear the NGR in the top-view map (no exact geometry)."""
         with ctx.stats.timed("goal"):
             spec = ctx.beliefs[name].spec
             boxes = spec.footprint.aabbs(finals.reshape(-1, 3)).reshape(len(finals), -1, 4)

@@ -340,6 +340,7 @@ def _push_at(
             nu = frame.moving_to_world(nu_hand, advances)
         nu.setflags(write=False)  # shared by every later candidate with this push
         ctx.pushes[key] = nu
+        ctx.push_pilots.pop(key, None)  # nu_o holds it
         return nu
 
     def pilot() -> np.ndarray | None:
