@@ -276,6 +276,31 @@ def test_a_box_is_swept_square_to_its_faces_a_can_along_the_grid(yaw: float) -> 
     assert len(squares & box) >= 2  # the hand reaches at least two of the faces
 
 
+@pytest.mark.parametrize("surface", [TABLE, SHELF], ids=lambda s: s.name)
+def test_sweep_directions_are_refined_in_an_enclosed_surface_only(surface: Any) -> None:
+    """A sweep tries its directions at the settings' step first; in the shelf, then, the
+    ones halfway between them, each (direction, side) once; on the open table no more."""
+    sweep_module = importlib.import_module("planners.actions.sweep")
+    from planners.actions.heuristics import sweep_directions
+
+    ctx = _scene_context(("can", "soda_can", (0.64, -0.2, 0.0)))
+    ctx.surface = surface
+    arm = Arm(surface, ctx.settings, ctx.stats, ctx.budget)
+    found = list(sweep_module._directions(ctx, arm, "can"))
+    coarse = sweep_directions(ctx, arm.heading_origin, "can")
+    assert found[: len(coarse)] == coarse
+    refined = found[len(coarse) :]
+    if surface is TABLE:
+        assert not refined
+        return
+    step = math.radians(ctx.settings.sweep_step_deg)
+    keys = [(round(a % (2 * math.pi), 9), h) for a, h in found]
+    assert len(set(keys)) == len(keys)
+    assert refined and all(
+        abs(math.remainder(a - step / 2, step)) < 1e-6 for a, _ in refined
+    )  # halfway between the grid's directions
+
+
 def _can_beside_bottle() -> PlanningContext:
     """A can with a juice bottle 11 cm to its left, at sigma2."""
     return _scene_context(

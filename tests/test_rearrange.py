@@ -471,12 +471,17 @@ def test_a_first_action_the_robot_cannot_reach_is_no_candidate(reaches_from_star
 
 
 class _RecordingArm:
-    """GoTo that records its requests and finds a path only from the robot's start when told."""
+    """GoTo that records its requests and finds a path only from the robot's start when told;
+    every configuration has the elbow inside the surface when told."""
 
-    def __init__(self, start: np.ndarray, reaches_from_start: bool) -> None:
+    def __init__(self, start: np.ndarray, reaches_from_start: bool, inside: bool = False) -> None:
         self.start = start
         self.reaches_from_start = reaches_from_start
+        self.inside = inside
         self.requests: list[tuple[str, Volume]] = []
+
+    def elbow_inside(self, q: np.ndarray) -> bool:
+        return self.inside
 
     def goto(
         self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
@@ -488,9 +493,11 @@ class _RecordingArm:
         return None, "no path found within 5000 evaluations"
 
 
-def _transit_search(reaches_from_start: bool) -> tuple[_Search, _RecordingArm]:
+def _transit_search(
+    reaches_from_start: bool, inside: bool = False
+) -> tuple[_Search, _RecordingArm]:
     ctx = _three_cans()
-    arm = _RecordingArm(hm.RIGHT_ARM_HOME, reaches_from_start)
+    arm = _RecordingArm(hm.RIGHT_ARM_HOME, reaches_from_start, inside)
     return _Search(ctx, arm, hm.RIGHT_ARM_HOME, ()), arm  # type: ignore[arg-type]
 
 
@@ -529,6 +536,37 @@ def test_a_transit_into_a_start_goto_cannot_reach_among_avoid_alone_is_refused(
     arm.requests.clear()
     assert search._transit("b", _moved("b"), (), ctx.objects_volume(()), r_next) is None
     assert [k for k, _ in arm.requests][:1] == ["transit"]
+
+
+@pytest.mark.parametrize("inside", [False, True])
+@pytest.mark.parametrize("reaches_from_start", [False, True])
+def test_a_start_with_the_elbow_inside_is_asked_of_goto_from_the_robots_start(
+    reaches_from_start: bool, inside: bool
+) -> None:
+    """A candidate whose start has the elbow inside an enclosed surface is searched below only
+    where GoTo reaches that start from the robot's start with avoidVol and the object itself
+    in the way (asked once per start, before its transit); a start with the elbow outside is
+    never asked."""
+    search, arm = _transit_search(reaches_from_start, inside)
+    ctx = search.ctx
+    r_next = (np.full(7, 0.2), HandCommand())
+    avoid = ("can",)
+    for _ in range(2):
+        candidate = search._assess(
+            _moved("a"), "a", ("b",), avoid, ctx.objects_volume(avoid), r_next
+        )
+        assert candidate is None  # this arm's transits find no path
+    asked = [volume for kind, volume in arm.requests if kind == "from start"]
+    own = [v for v in asked if v is ctx.objects_volume(("can", "a"))]
+    assert len(own) == (1 if inside else 0)
+    transits = [kind for kind, _ in arm.requests].count("transit")
+    assert (transits == 0) == (inside and not reaches_from_start)
+    unreachable = [line for line in ctx.failures.blockers() if "its start" in line]
+    assert unreachable == (
+        ["goto a: " + rearrange_module.UNREACHABLE_OWN_START + " (2x)"]
+        if inside and not reaches_from_start
+        else []
+    )
 
 
 def test_an_approach_is_planned_once_per_start() -> None:

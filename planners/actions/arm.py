@@ -218,6 +218,11 @@ class Arm:
             return solutions
         return solutions[np.argsort(self._elbow_inside(solutions), kind="stable")]
 
+    def elbow_inside(self, q: np.ndarray) -> bool:
+        """Whether the arm at q stands with the elbow within its radius of the surface's
+        interior (`_elbow_inside`): in the shelf, the postures GoTo rarely finds a way into."""
+        return bool(self._elbow_inside(np.asarray(q, dtype=float)[None])[0])
+
     def _elbow_inside(self, qs: np.ndarray) -> np.ndarray:
         """Which configurations (N, 7) stand with the elbow within its radius of the surface's
         interior (none on an open surface)."""
@@ -283,7 +288,7 @@ class Arm:
         if back is not None and first(back[-1]):
             return back[::-1].copy()
         q_start = self.solve(start, first)
-        if q_start is None or self._elbow_inside(q_start[None])[0]:
+        if q_start is None or self.elbow_inside(q_start):
             return None
         return self.straight(q_start, end, free)
 

@@ -88,20 +88,21 @@ def push_headings(
 
 
 def sweep_directions(
-    ctx: PlanningContext, shoulder: np.ndarray, name: str
+    ctx: PlanningContext, shoulder: np.ndarray, name: str, step_deg: float | None = None
 ) -> list[tuple[float, int]]:
     """(sweep direction, handedness) pairs whose hand approach is within reach, ordered by the
     objects the swept object would run into, then by how natural the approach is. A box is
     also swept square to its detected faces: the hand's side then meets a face flat, where the
     sweep capture region holds the box longest, and a box turned off the direction grid would
-    otherwise meet the hand at a corner."""
+    otherwise meet the hand at a corner. ``step_deg`` (default
+    `PlannerSettings.sweep_step_deg`) spaces the directions."""
     belief = ctx.beliefs[name]
     centre = belief.samples[0, :2]
     base = base_heading(shoulder, centre)
     radius = belief.spec.footprint.bounding_radius
     limit = math.radians(ctx.settings.sweep_max_heading_deg) + 1e-9
     scored = []
-    step = math.radians(ctx.settings.sweep_step_deg)
+    step = math.radians(step_deg or ctx.settings.sweep_step_deg)
     angles = [k * step for k in range(round(2 * math.pi / step))]
     if belief.spec.footprint.shape == "box":
         for k in range(4):

@@ -41,6 +41,9 @@ PILOT_INTO_AVOID = "the detected pose sweeps into avoidVol"
 EXACT_STRIDE = 4
 """Steps of nu_o between the first exact goal tests of a sweep's first guess."""
 
+DIRECTION_REFINE = 2
+"""In an enclosed surface the sweep directions are searched again at this fraction of the
+settings' step (`_directions`)."""
 SWEEP_PLACEMENTS = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.1, 0.9, 0.55, 0.65, 0.45, 0.75)
 """Where the object's centre meets the hand's side, as fractions from the wrist end to the
 fingertip, most central first, then the half-steps between the central ones: how far the sweep
@@ -58,10 +61,30 @@ def sweep(
     if not ctx.beliefs[name].spec.pushable:
         yield Failure(name, ACTION, "tips over when pushed")
         return
-    for angle, handedness in sweep_directions(ctx, arm.heading_origin, name):
+    for angle, handedness in _directions(ctx, arm, name):
         ctx.check_budget()
         ctx.stats.actions_tried += 1
         yield from _sweep_at(ctx, arm, name, goal, avoid, angle, handedness)
+
+
+def _directions(ctx: PlanningContext, arm: Arm, name: str) -> Iterator[tuple[float, int]]:
+    """`sweep_directions` at the settings' step; in an enclosed surface, then, only if the
+    search goes on, the ones between them at a `DIRECTION_REFINE`-th of the step. In the
+    shelf an object in front of the goal has few ways out, between the NGR of the goal's
+    pick-up, the walls, the front edge and the hole in front of the shoulder (shelf high
+    scene 45: a bottle swept at 255 deg, where 240 and 270 deg give no sweep); on the table
+    an object has room all around and the finer grid only costs (the Figs. 3-5 plan, which
+    it leaves as it is, took 32% longer with it)."""
+    coarse = sweep_directions(ctx, arm.heading_origin, name)
+    yield from coarse
+    if ctx.surface.interior is None:
+        return
+    step = ctx.settings.sweep_step_deg / DIRECTION_REFINE
+    for angle, handedness in sweep_directions(ctx, arm.heading_origin, name, step):
+        if all(
+            h != handedness or abs(math.remainder(angle - a, 2 * math.pi)) > 1e-6 for a, h in coarse
+        ):
+            yield angle, handedness
 
 
 @dataclass(frozen=True)
