@@ -371,8 +371,8 @@ class _Search:
         r_next: NextStart | None,
     ) -> _Candidate | None:
         """One candidate's transit, FindPenetrated and, when it leaves nothing to move first
-        (the plan's first action), its approach; None when the transit or the approach finds
-        no path."""
+        (the plan's first action), its approach; None when the arm cannot get to its start
+        at all (`_enterable`) or the transit or the approach finds no path."""
         ctx = self.ctx
         if not self._enterable(o, result.trajectory, avoid):
             return None
