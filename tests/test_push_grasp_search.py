@@ -15,6 +15,7 @@ import pytest
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import OBJECTS, get_object
 from clutter_gym.model.reachability import HEIGHTS, PUSH_HEIGHT, hand_pose
+from clutter_gym.model.transforms import Frame2D
 from clutter_gym.model.world import SHELF, TABLE
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
@@ -213,7 +214,7 @@ def _scene_context(*objects: tuple[str, str, tuple[float, float, float]]) -> Pla
     beliefs = {}
     for name, kind, pose in objects:
         samples = sample_poses(pose, (0.005, 0.034), 30, rng)
-        beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples)
+        beliefs[name] = ObjectBelief(name, get_object(kind), pose, samples, (0.005, 0.034))
     settings = PlannerSettings(time_budget=600.0)  # far above the tests' needs
     return PlanningContext(TABLE, beliefs, settings, TABLE.default_goal_region, rng)
 
@@ -352,9 +353,11 @@ def test_where_the_step_after_a_push_fails_the_next_offset_is_tried_before_anoth
 ) -> None:
     """A push that passes at one lateral offset may still fail at what follows it (the
     release, lift or placement) where the next offset's would not: the search goes on over
-    the offsets of that heading and aperture before it turns to another aperture."""
+    the offsets of that heading and aperture before it turns to another aperture (among the
+    pushes of one kind: here every push counts as holding the preferred belief mass)."""
     push_grasp = importlib.import_module("planners.actions.push_grasp")
     ctx = _scene_context(("can", "soda_can", (0.70, -0.25, 0.0)))
+    ctx.settings = dataclasses.replace(ctx.settings, preferred_mass=0.0)
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
     centre = np.array([0.70, -0.25, TABLE.top_z + 0.1])
     away = AwayFrom(Volume.of_box("ngr", centre, (0.1, 0.1, 0.2), 0.0))
@@ -405,7 +408,7 @@ def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided
     away = AwayFrom(Volume.of_box("ngr", centre, (0.1, 0.1, 0.2), 0.0))
     ctx = context()
     outcomes(ctx, ["bottle", "box"])
-    blocked = {k for k, (_, by) in ctx.blocked_hands.items() if by == "bottle"}
+    blocked = {k for k, why in ctx.blocked_hands.items() if why.blocker == "bottle"}
     assert blocked
     tested: set[tuple[float, ...]] = set()
     stops = clearance.stops_overlapping
@@ -736,6 +739,74 @@ def test_all_offsets_planned_at_once_are_each_offsets_own_plan(kind: str) -> Non
                     assert plan.distance == distance
                     assert np.array_equal(plan.end, start + distance * v)
     assert planned > 20
+
+
+def _wide_can(preferred_mass: float = PlannerSettings.preferred_mass) -> PlanningContext:
+    """A lone can at Fig. 2's noise (sigma 2 cm, 20 samples): pushes that hold every sample
+    differ in how much of the belief they hold."""
+    pose = (0.68, -0.25, 0.0)
+    samples = sample_poses(pose, (0.02, 0.05), 20, np.random.default_rng(3))
+    belief = ObjectBelief("can", get_object("soda_can"), pose, samples, (0.02, 0.05))
+    settings = PlannerSettings(time_budget=600.0, preferred_mass=preferred_mass)
+    rng = np.random.default_rng(0)
+    return PlanningContext(TABLE, {"can": belief}, settings, TABLE.default_goal_region, rng)
+
+
+def test_a_pushs_belief_mass_is_the_share_of_draws_its_region_holds() -> None:
+    """`_belief_masses`, one region query for all offsets, against the definition: the draws
+    of the belief seen from each push's starting hand, inside the region of its distance."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _wide_can()
+    belief = ctx.beliefs["can"]
+    masses: list[float] = []
+    for aperture in push_grasp_apertures(belief.spec.footprint)[:3]:
+        region = ctx.push_region(belief.spec.footprint, aperture)
+        for heading in np.radians([-60.0, 0.0, 45.0]):
+            offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, 0.01)
+            if not len(offsets):
+                continue
+            pushes = [
+                p for p in push_grasp._plan_pushes(ctx, "can", heading, aperture, offsets) if p
+            ]
+            for push, mass in zip(
+                pushes, push_grasp._belief_masses(ctx, "can", pushes), strict=True
+            ):
+                hand = Frame2D((float(push.start[0]), float(push.start[1])), heading)
+                held = region.contains(hand.to_frame(belief.mass_draws), push.distance)
+                assert mass == pytest.approx(held.mean(), abs=1e-12)
+                masses.append(mass)
+    assert len(masses) > 20 and min(masses) < 0.95 < max(masses)
+
+
+@pytest.mark.parametrize("preferred", [0.95, 0.0])
+def test_pushes_holding_the_preferred_mass_are_tried_first_at_every_heading(
+    monkeypatch: pytest.MonkeyPatch, preferred: float
+) -> None:
+    """Every push whose region holds at least `preferred_mass` of the belief is tried (at
+    every heading and aperture) before any that holds less, and within a heading and aperture
+    the most mass first; with 0 every push is of the first kind."""
+    push_grasp = importlib.import_module("planners.actions.push_grasp")
+    ctx = _wide_can(preferred)
+    arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
+    tried: list[tuple[float, float, float]] = []
+
+    def refuse(c, a, name, avoid, action, push, mass):  # type: ignore[no-untyped-def]
+        tried.append((push.heading, push.aperture, mass))
+        return Failure(name, action, "refused")
+
+    monkeypatch.setattr(push_grasp, "_push_at", refuse)
+    away = AwayFrom(Volume.of_box("ngr", np.array([0.68, -0.25, 0.85]), (0.1, 0.1, 0.2), 0.0))
+    list(push_grasp.push_grasp(ctx, arm, "can", away, ctx.objects_volume([])))
+    kinds = [mass >= preferred for _, _, mass in tried]
+    first_low = kinds.index(False) if False in kinds else len(kinds)
+    assert all(kinds[:first_low]) and not any(kinds[first_low:])
+    assert first_low > 5 and (preferred == 0.0) == (first_low == len(kinds))
+    for kind in (tried[:first_low], tried[first_low:]):
+        for key in {t[:2] for t in kind}:
+            masses = [m for *k, m in kind if tuple(k) == key]
+            assert masses == sorted(masses, reverse=True)
+    headings_high = {t[0] for t in tried[:first_low]}
+    assert len(headings_high) > 1  # the first kind spans headings before any of the second
 
 
 def test_a_box_near_the_palm_turns_toward_the_axis_else_anywhere() -> None:

@@ -13,7 +13,7 @@ from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import get_object
 from clutter_gym.model.transforms import Frame2D
 from clutter_gym.model.world import TABLE
-from planners.uncertainty import SAMPLE_COUNTS, sample_count, sample_poses
+from planners.uncertainty import MASS_DRAWS, SAMPLE_COUNTS, beliefs, sample_count, sample_poses
 
 Z = TABLE.top_z
 
@@ -33,6 +33,26 @@ def test_samples_start_at_the_detection_and_follow_sigma() -> None:
     assert samples[1:, 0].std() == pytest.approx(0.02, rel=0.05)
     assert samples[1:, 2].std() == pytest.approx(0.1, rel=0.05)
     assert np.all(np.abs(samples[:, 2]) <= math.pi)
+
+
+def test_mass_draws_follow_the_belief_and_repeat() -> None:
+    """`ObjectBelief.mass_draws`: N(q_hat, Q) of the belief's own sigma, the same draws on
+    every call and for a new belief of the same detection (plans stay deterministic); without
+    noise only the detection."""
+    can = get_object("soda_can")
+    detected = (0.7, -0.1, 3.1)
+    noisy, again = (
+        beliefs([("can", can, detected)], (0.02, 0.1), 20, np.random.default_rng(seed))[0]
+        for seed in (0, 1)
+    )
+    draws = noisy.mass_draws
+    assert draws.shape == (MASS_DRAWS, 3) and np.array_equal(draws, again.mass_draws)
+    assert draws[:, :2].mean(0) == pytest.approx(detected[:2], abs=0.003)  # 5 s.e.
+    assert draws[:, :2].std(0) == pytest.approx([0.02, 0.02], rel=0.1)
+    turn = np.angle(np.exp(1j * (draws[:, 2] - detected[2])))
+    assert turn.std() == pytest.approx(0.1, rel=0.1) and np.all(np.abs(draws[:, 2]) <= math.pi)
+    exact = beliefs([("can", can, detected)], (0.0, 0.0), 1, np.random.default_rng(0))[0]
+    assert np.allclose(exact.mass_draws, [detected], rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("n", [0, -3])

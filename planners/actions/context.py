@@ -21,7 +21,7 @@ from planners.uncertainty import ObjectBelief
 
 if TYPE_CHECKING:
     from planners.actions.pick_and_place import GraspToPlace
-    from planners.actions.push_grasp import HandInSearch, PlannedPush
+    from planners.actions.push_grasp import BlockedHand, HandInSearch, PlannedPush
     from planners.actions.sweep import SweepEvolution
 
 
@@ -75,10 +75,13 @@ class PlanningContext:
         #: Push-grasps by object, heading and aperture, one per lateral offset (None where
         #: the capture region misses a sample): `push_grasp._plan_push`.
         self.push_plans: dict[tuple[str, float, float], list[PlannedPush | None]] = {}
+        #: The belief mass each such push captures (`push_grasp._belief_masses`), by object,
+        #: heading, aperture and offset.
+        self.push_masses: dict[tuple[str, float, float, float], float] = {}
         #: Push-grasp hand motions (object, heading, aperture, offset) that an object of
-        #: avoidVol blocked, with (reason, that object): they fail again under every avoidVol
-        #: that holds it (`push_grasp._blocked_before`), whatever else it holds.
-        self.blocked_hands: dict[tuple[str, float, float, float], tuple[str, str]] = {}
+        #: avoidVol blocked, with why: they fail again under every avoidVol that holds that
+        #: object (`push_grasp._blocked_before`), whatever else it holds.
+        self.blocked_hands: dict[tuple[str, float, float, float], BlockedHand] = {}
         #: Pick-and-place's close, lift and carries after a grasp, by the ids of the hand-in
         #: and avoidVol (`pick_and_place.GraspToPlace`): they never depend on G.
         self.grasps_to_place: dict[tuple[int, int], GraspToPlace] = {}

@@ -45,10 +45,12 @@ PushedOrFailure = tuple[HandIn, dict[str, float]] | Failure
 def push_grasp(
     ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
 ) -> Iterator[Outcome]:
-    """Push-grasps of ``name``, best heading first. For the goal (G is `Retrieve`) they are
-    PickUps, and the static grasps of its TSR come first (push-grasps with no push, d = 0,
-    §3.1.2: the shortest motion when the uncertainty allows one). An obstacle is either left
-    where the push put it or carried out of the NGR (PickUp of an obstacle, §2.1.6)."""
+    """Push-grasps of ``name``, best heading first: those that hold at least the settings'
+    `preferred_mass` of the belief at every heading, then the others. For the goal (G is
+    `Retrieve`) they are PickUps, and the static grasps of its TSR come first (push-grasps
+    with no push, d = 0, §3.1.2: the shortest motion when the uncertainty allows one). An
+    obstacle is either left where the push put it or carried out of the NGR (PickUp of an
+    obstacle, §2.1.6)."""
     spec = ctx.beliefs[name].spec
     action = "pickup" if isinstance(goal, Retrieve) else "push-grasp"
     why = unfit(spec, pushed=True, lifted=action == "pickup")
@@ -59,10 +61,20 @@ def push_grasp(
         yield from static_grasp(ctx, arm, name, goal, avoid)
     apertures = aperture_order(spec.footprint, spec.liftable)
     reach = push_grasp_profile(max(apertures)).pusher.bounds[3]
-    for heading in _headings(ctx, arm, name, reach, avoid):
-        for aperture in apertures:
-            if (yield from _first_finished(ctx, arm, name, goal, avoid, action, heading, aperture)):
-                break  # the next candidate pushes from another direction
+    headings: list[float] = []
+    finished: set[float] = set()
+    for likely in (True, False):
+        source = _headings(ctx, arm, name, reach, avoid) if likely else iter(headings)
+        for heading in source:
+            if likely:
+                headings.append(heading)
+            if heading in finished:
+                continue
+            for aperture in apertures:
+                args = (ctx, arm, name, goal, avoid, action, heading, aperture, likely)
+                if (yield from _first_finished(*args)):
+                    finished.add(heading)
+                    break  # the next candidate pushes from another direction
 
 
 def _first_finished(
@@ -74,10 +86,12 @@ def _first_finished(
     action: str,
     heading: float,
     aperture: float,
+    likely: bool,
 ) -> Generator[Outcome, None, bool]:
     """The finishes of the first lateral offset whose push and finish both pass (and the
-    failures on the way); whether there was one."""
-    for pushed in _hand_ins(ctx, arm, name, avoid, action, heading, aperture):
+    failures on the way); whether there was one. ``likely``: among the pushes that hold at
+    least the settings' `preferred_mass` of the belief, else among the others (second pass)."""
+    for pushed in _hand_ins(ctx, arm, name, avoid, action, heading, aperture, likely):
         if isinstance(pushed, Failure):
             yield pushed
             continue
@@ -154,26 +168,39 @@ class HandInSearch:
     motion, nu_o against avoidVol) never depend on G, so every parent candidate that asks to
     move the object with the same avoidVol (`PlanningContext.objects_volume`, one object per
     set of names) reads what an earlier one found, failures too (for blocked_by), and goes on
-    where it stopped. avoidVol is kept with the search: its id stays its own while it lives."""
+    where it stopped. avoidVol is kept with the search: its id stays its own while it lives.
+    The search yields its likely pushes, then None, then the rest (`tier`)."""
 
-    def __init__(self, avoid: Volume, search: Iterator[PushedOrFailure]) -> None:
+    def __init__(self, avoid: Volume, search: Iterator[PushedOrFailure | None]) -> None:
         self.avoid = avoid
-        self._search: Iterator[PushedOrFailure] | None = search
-        self._found: list[PushedOrFailure] = []
+        self._search: Iterator[PushedOrFailure | None] | None = search
+        self._found: list[PushedOrFailure | None] = []
 
-    def __iter__(self) -> Iterator[PushedOrFailure]:
+    def _items(self) -> Iterator[PushedOrFailure | None]:
         k = 0
         while True:
             if k == len(self._found):
                 if self._search is None:
                     return
-                item = next(self._search, None)
-                if item is None:
+                try:
+                    self._found.append(next(self._search))
+                except StopIteration:
                     self._search = None
                     return
-                self._found.append(item)
             yield self._found[k]
             k += 1
+
+    def tier(self, likely: bool) -> Iterator[PushedOrFailure]:
+        """The likely pushes (up to the None), else what follows the None."""
+        items = self._items()
+        if not likely:
+            for item in items:
+                if item is None:
+                    break
+        for item in items:
+            if item is None:
+                return
+            yield item
 
 
 def _hand_ins(
@@ -184,16 +211,17 @@ def _hand_ins(
     action: str,
     heading: float,
     aperture: float,
+    likely: bool,
 ) -> Iterator[PushedOrFailure]:
-    """`_over_offsets` through the plan's `HandInSearch` for these parameters."""
+    """`_over_offsets` through the plan's `HandInSearch` for these parameters: its likely
+    pushes, or the rest."""
     key = (name, action, heading, aperture, id(avoid))
     search = ctx.hand_ins.get(key)
     if search is None:
-        search = HandInSearch(
-            avoid, _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
-        )
+        offsets = _over_offsets(ctx, arm, name, avoid, action, heading, aperture)
+        search = HandInSearch(avoid, offsets)
         ctx.hand_ins[key] = search
-    return iter(search)
+    return search.tier(likely)
 
 
 def _over_offsets(
@@ -204,24 +232,23 @@ def _over_offsets(
     action: str,
     heading: float,
     aperture: float,
-) -> Iterator[PushedOrFailure]:
-    """The pushes at this heading and aperture, one per lateral offset (`lateral_offsets`,
-    middle first), that pass every check, with the failures on the way. A failure at one
-    offset does not end the search: a hand shifted by a centimetre may clear a neighbour or
-    find IK; nor does a push that passes, since what the action does next (lift, release,
-    place) may fail there and not at the next offset. The capture and the hand's overlap where
-    it stops, which rule out most offsets, are decided for all offsets at once before any
-    offset pays for IK."""
+) -> Iterator[PushedOrFailure | None]:
+    """The pushes at this heading and aperture, one per lateral offset (`lateral_offsets`),
+    that pass every check, with the failures on the way: first the pushes whose capture holds
+    at least the settings' `preferred_mass` of the belief (`_belief_masses`), most first; then
+    None; then the offsets that fail before any IK, and the other pushes, most mass first. A
+    failure at one offset does not end the search: a hand shifted by a centimetre may clear a
+    neighbour or find IK; nor does a push that passes, since what the action does next (lift,
+    release, place) may fail there and not at the next offset. The capture and the hand's
+    overlap where it stops, which rule out most offsets, are decided for all offsets at once
+    before any offset pays for the mass, and the mass before any offset pays for IK."""
     belief = ctx.beliefs[name]
     region = ctx.push_region(belief.spec.footprint, aperture)
     offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
-    if not len(offsets):
-        yield Failure(name, action, MISSES_SAMPLES)
-        return
     pushes = ctx.push_plans.get((name, heading, aperture))
     if pushes is None:  # the samples and the region alone decide them: once per plan
         with ctx.stats.timed("capture"):
-            pushes = _plan_pushes(ctx, name, heading, aperture, offsets)
+            pushes = _plan_pushes(ctx, name, heading, aperture, offsets) if len(offsets) else []
         ctx.push_plans[(name, heading, aperture)] = pushes
     # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
     # planar tests behind such failures see that object alone.
@@ -232,39 +259,78 @@ def _over_offsets(
     z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
     pusher = push_grasp_profile(aperture).pusher
     blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
+    early: list[Failure] = [] if len(offsets) else [Failure(name, action, MISSES_SAMPLES)]
+    clear: list[PlannedPush] = []  # past the planar test: ranked by mass
     for push, blocked in zip(pushes, known, strict=True):
+        if push is None:
+            early.append(Failure(name, action, MISSES_SAMPLES))
+        elif blocked is not None and blocked.planar:
+            early.append(Failure(name, action, blocked.reason, blocked.blocker))
+        elif blocked is None and (blocker := next(blockers)):
+            why = f"the hand overlaps {blocker} where it stops"
+            early.append(Failure(name, action, why, blocker))
+            ctx.blocked_hands[_hand_key(name, push)] = BlockedHand(why, blocker, planar=True)
+        else:
+            clear.append(push)
+    masses = _belief_masses(ctx, name, clear)
+    ranked = sorted(zip(clear, masses, strict=True), key=lambda pm: -pm[1])  # stable
+    bar = ctx.settings.preferred_mass
+    for push, mass in (pm for pm in ranked if pm[1] >= bar):
+        yield _tried_push(ctx, arm, name, avoid, action, push, mass)
+    yield None
+    for failure in early:
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        if push is None:
-            outcome: tuple[HandIn, dict[str, float]] | Failure = Failure(
-                name, action, MISSES_SAMPLES
-            )
-        elif blocked is not None:
-            outcome = Failure(name, action, *blocked)
-        else:
-            blocker = next(blockers)
-            if blocker:
-                why = f"the hand overlaps {blocker} where it stops"
-                outcome = Failure(name, action, why, blocker)
-            else:
-                outcome = _push_at(ctx, arm, name, avoid, action, push)
-            if isinstance(outcome, Failure) and outcome.blocker:
-                ctx.blocked_hands[_hand_key(name, push)] = (outcome.reason, outcome.blocker)
-        yield outcome
+        yield failure
+    for push, mass in (pm for pm in ranked if pm[1] < bar):
+        yield _tried_push(ctx, arm, name, avoid, action, push, mass)
+
+
+def _tried_push(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    action: str,
+    push: PlannedPush,
+    mass: float,
+) -> PushedOrFailure:
+    """`_push_at`, counted; a failure that names an object is remembered for its hand pose
+    (and given again, without IK, where that object is still avoided)."""
+    ctx.check_budget()
+    ctx.stats.actions_tried += 1
+    blocked = _blocked_before(ctx, name, push, avoid.labels)
+    if blocked is not None:
+        return Failure(name, action, blocked.reason, blocked.blocker)
+    outcome = _push_at(ctx, arm, name, avoid, action, push, mass)
+    if isinstance(outcome, Failure) and outcome.blocker:
+        hand = BlockedHand(outcome.reason, outcome.blocker, planar=False)
+        ctx.blocked_hands[_hand_key(name, push)] = hand
+    return outcome
 
 
 def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
     return (name, push.heading, push.aperture, push.offset)
 
 
+@dataclass(frozen=True)
+class BlockedHand:
+    """Why a push-grasp's hand motion failed against one object: ``planar`` where the planar
+    test of its stop found it (before the belief mass and IK), else on the way there."""
+
+    reason: str
+    blocker: str
+    planar: bool
+
+
 def _blocked_before(
     ctx: PlanningContext, name: str, push: PlannedPush, avoid: frozenset[str]
-) -> tuple[str, str] | None:
-    """(reason, blocker) of an earlier failure of this hand motion that named an object of
-    avoidVol (its labels, ``avoid``): the hand's cross-section overlapped that object's
-    samples where it stops or on its way (`clearance`), which no other object can undo."""
+) -> BlockedHand | None:
+    """An earlier failure of this hand motion that named an object of avoidVol (its labels,
+    ``avoid``): the hand's cross-section overlapped that object's samples where it stops or
+    on its way (`clearance`), which no other object can undo."""
     blocked = ctx.blocked_hands.get(_hand_key(name, push))
-    return blocked if blocked is not None and blocked[1] in avoid else None
+    return blocked if blocked is not None and blocked.blocker in avoid else None
 
 
 @dataclass(frozen=True)
@@ -320,8 +386,40 @@ def _plan_pushes(
     return plans
 
 
+def _belief_masses(ctx: PlanningContext, name: str, pushes: list[PlannedPush]) -> list[float]:
+    """For each push, the share of the belief's draws (`ObjectBelief.mass_draws`) its capture
+    region holds within its distance: the chance that the push-grasp captures the true pose.
+    The paper takes any push that holds the n samples, yet the true pose falls beyond them in
+    some executions (Fig. 2's variant 08: 20 samples at sigma 2 cm, and the push at the middle
+    of their spread held 0.905 of the draws where another offset held 0.995). Once per push
+    and plan, all new pushes of a heading and aperture in one region query."""
+    new = [p for p in pushes if _hand_key(name, p) not in ctx.push_masses]
+    if new:
+        with ctx.stats.timed("capture"):
+            heading, aperture = new[0].heading, new[0].aperture
+            draws = ctx.beliefs[name].mass_draws
+            region = ctx.push_region(ctx.beliefs[name].spec.footprint, aperture)
+            v = np.array([math.cos(heading), math.sin(heading)])
+            across = Frame2D((0.0, 0.0), heading).y_axis
+            starts = np.array([p.start for p in new])
+            d = draws[None, :, :2] - starts[:, None, :]  # (K, M, 2)
+            theta = np.broadcast_to(wrap_angle(draws[:, 2] - heading), d.shape[:2])
+            in_hand = np.stack([d @ v, d @ across, theta], axis=-1).reshape(-1, 3)
+            _, need = region.query(in_hand)
+            held = need.reshape(len(new), -1) <= np.array([p.distance for p in new])[:, None]
+            for push, share in zip(new, held.mean(1), strict=True):
+                ctx.push_masses[_hand_key(name, push)] = float(share)
+    return [ctx.push_masses[_hand_key(name, p)] for p in pushes]
+
+
 def _push_at(
-    ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, action: str, push: PlannedPush
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    action: str,
+    push: PlannedPush,
+    mass: float,
 ) -> tuple[HandIn, dict[str, float]] | Failure:
     """The push's motion, nu_o and parameters, or why the arm cannot make it."""
     region = ctx.push_region(ctx.beliefs[name].spec.footprint, push.aperture)
@@ -360,6 +458,7 @@ def _push_at(
         "aperture_m": push.aperture,
         "offset_m": push.offset,
         "push_m": push.distance,
+        "belief_mass": mass,
     }
     profile = push_grasp_profile(push.aperture)
     line = (push.start, push.end)

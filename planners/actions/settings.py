@@ -31,6 +31,10 @@ class PlannerSettings:
     # Candidates of one action a planning step searches below, counting only those the arm
     # can get to (`rearrange._Search._by_action`); the actions themselves yield all they find.
     candidates_per_action: int = 3
+    # Push-grasps whose capture region holds at least this share of the belief (the chance
+    # that it captures the true pose, `ObjectBelief.mass_draws`) are all tried before any that
+    # holds less; 0 keeps the paper's order, in which holding the n samples is enough.
+    preferred_mass: float = 0.95
     seed: int = 0
     # The point (x, y) the directions above are measured from: None for the right shoulder.
     # The end-effector demos (`agents.learning.demos`) give the ready pose's TCP: from there
@@ -44,6 +48,10 @@ class PlannerSettings:
                 raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
         if not (math.isfinite(self.time_budget) and self.time_budget >= 0):
             raise ValueError(f"PlannerSettings.time_budget: {self.time_budget!r}; must be >= 0")
+        if not 0.0 <= self.preferred_mass <= 1.0:
+            raise ValueError(
+                f"PlannerSettings.preferred_mass: {self.preferred_mass!r}; must be in [0, 1]"
+            )
         if self.candidates_per_action < 1:
             raise ValueError(
                 f"PlannerSettings.candidates_per_action: {self.candidates_per_action}; must be >= 1"
