@@ -250,17 +250,61 @@ def _over_offsets(
         with ctx.stats.timed("capture"):
             pushes = _plan_pushes(ctx, name, heading, aperture, offsets) if len(offsets) else []
         ctx.push_plans[(name, heading, aperture)] = pushes
+    if len(offsets):
+        early, clear = _before_ik(ctx, name, avoid, action, heading, aperture, pushes)
+    else:
+        early, clear = [Failure(name, action, MISSES_SAMPLES)], []
+    masses = _belief_masses(ctx, name, clear)
+    ranked = sorted(zip(clear, masses, strict=True), key=lambda pm: -pm[1])  # stable
+    bar = ctx.settings.preferred_mass
+
+    def tried(push: PlannedPush, mass: float) -> PushedOrFailure:
+        """`_push_at`, counted; a failure that names an object is remembered for its hand
+        pose (and given again, without IK, where that object is still avoided)."""
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        blocked = _blocked_before(ctx, name, push, avoid.labels)
+        if blocked is not None:
+            return Failure(name, action, blocked.reason, blocked.blocker)
+        outcome = _push_at(ctx, arm, name, avoid, action, push, mass)
+        if isinstance(outcome, Failure) and outcome.blocker:
+            hand = BlockedHand(outcome.reason, outcome.blocker, planar=False)
+            ctx.blocked_hands[_hand_key(name, push)] = hand
+        return outcome
+
+    for push, mass in (pm for pm in ranked if pm[1] >= bar):
+        yield tried(push, mass)
+    yield None
+    for failure in early:
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        yield failure
+    for push, mass in (pm for pm in ranked if pm[1] < bar):
+        yield tried(push, mass)
+
+
+def _before_ik(
+    ctx: PlanningContext,
+    name: str,
+    avoid: Volume,
+    action: str,
+    heading: float,
+    aperture: float,
+    pushes: list[PlannedPush | None],
+) -> tuple[list[Failure], list[PlannedPush]]:
+    """The offsets that fail before any IK (the capture misses a sample, or the planar test
+    finds the hand on a neighbour where it stops, now or under an earlier avoidVol that
+    held it), and the pushes past them, each list in offset order."""
     # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
     # planar tests behind such failures see that object alone.
-    labels = avoid.labels
-    known = [None if p is None else _blocked_before(ctx, name, p, labels) for p in pushes]
+    known = [None if p is None else _blocked_before(ctx, name, p, avoid.labels) for p in pushes]
     open_ = [p for p, k in zip(pushes, known, strict=True) if p is not None and k is None]
     ends = np.array([p.end for p in open_]).reshape(-1, 2)
     z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
     pusher = push_grasp_profile(aperture).pusher
     blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
-    early: list[Failure] = [] if len(offsets) else [Failure(name, action, MISSES_SAMPLES)]
-    clear: list[PlannedPush] = []  # past the planar test: ranked by mass
+    early: list[Failure] = []
+    clear: list[PlannedPush] = []
     for push, blocked in zip(pushes, known, strict=True):
         if push is None:
             early.append(Failure(name, action, MISSES_SAMPLES))
@@ -272,41 +316,7 @@ def _over_offsets(
             ctx.blocked_hands[_hand_key(name, push)] = BlockedHand(why, blocker, planar=True)
         else:
             clear.append(push)
-    masses = _belief_masses(ctx, name, clear)
-    ranked = sorted(zip(clear, masses, strict=True), key=lambda pm: -pm[1])  # stable
-    bar = ctx.settings.preferred_mass
-    for push, mass in (pm for pm in ranked if pm[1] >= bar):
-        yield _tried_push(ctx, arm, name, avoid, action, push, mass)
-    yield None
-    for failure in early:
-        ctx.check_budget()
-        ctx.stats.actions_tried += 1
-        yield failure
-    for push, mass in (pm for pm in ranked if pm[1] < bar):
-        yield _tried_push(ctx, arm, name, avoid, action, push, mass)
-
-
-def _tried_push(
-    ctx: PlanningContext,
-    arm: Arm,
-    name: str,
-    avoid: Volume,
-    action: str,
-    push: PlannedPush,
-    mass: float,
-) -> PushedOrFailure:
-    """`_push_at`, counted; a failure that names an object is remembered for its hand pose
-    (and given again, without IK, where that object is still avoided)."""
-    ctx.check_budget()
-    ctx.stats.actions_tried += 1
-    blocked = _blocked_before(ctx, name, push, avoid.labels)
-    if blocked is not None:
-        return Failure(name, action, blocked.reason, blocked.blocker)
-    outcome = _push_at(ctx, arm, name, avoid, action, push, mass)
-    if isinstance(outcome, Failure) and outcome.blocker:
-        hand = BlockedHand(outcome.reason, outcome.blocker, planar=False)
-        ctx.blocked_hands[_hand_key(name, push)] = hand
-    return outcome
+    return early, clear
 
 
 def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
