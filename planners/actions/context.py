@@ -73,7 +73,7 @@ class PlanningContext:
         #: the failures met on the way (`push_grasp.HandInSearch`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}
         #: Push-grasps by object, heading and aperture, one per lateral offset (None where
-        #: the capture region misses a sample): `push_grasp._plan_push`.
+        #: the capture region misses a sample): `push_grasp._plan_pushes`.
         self.push_plans: dict[tuple[str, float, float], list[PlannedPush | None]] = {}
         #: The belief mass each such push captures (`push_grasp._belief_masses`), by object,
         #: heading, aperture and offset.

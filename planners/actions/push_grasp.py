@@ -134,7 +134,8 @@ def lateral_offsets(
     """Lateral hand offsets (m, to the hand's left of the detection) that can capture every
     sample: from the middle of the samples' spread across the push out to the two extremes at
     which the capture region, ``half_width`` either side of the hand's axis, still spans them
-    (§2.2.6: "o is changed between the two extreme positions"), middle first, ``step`` apart."""
+    (§2.2.6: "o is changed between the two extreme positions"), middle first, ``step`` apart
+    (`_over_offsets` then tries those that hold every sample most belief mass first)."""
     normal = np.array([-math.sin(heading), math.cos(heading)])
     lateral = (samples[:, :2] - samples[0, :2]) @ normal
     low, high = float(lateral.max()) - half_width, float(lateral.min()) + half_width
