@@ -379,9 +379,7 @@ def _plan_pushes(
     outline = outline_reach(spec.footprint, theta)
     back_off = (local_x - outline).min(1) - profile.pusher.bounds[1] - START_CLEARANCE
     starts = centres + back_off[:, None] * v
-    d = samples[None, :, :2] - starts[:, None, :]
-    across = Frame2D((0.0, 0.0), heading).y_axis  # the hand frame's y, as `Frame2D` has it
-    in_hand = np.stack([d @ v, d @ across, np.broadcast_to(theta, d.shape[:2])], axis=-1)
+    in_hand = _in_hands(samples, starts, heading)
     inside, need = region.query(in_hand.reshape(-1, 3))
     inside, need = inside.reshape(len(centres), -1), need.reshape(len(centres), -1)
     plans: list[PlannedPush | None] = []
@@ -397,6 +395,16 @@ def _plan_pushes(
     return plans
 
 
+def _in_hands(poses: np.ndarray, starts: np.ndarray, heading: float) -> np.ndarray:
+    """World poses (N, 3) in the frame of a hand at each of ``starts`` (K, 2) pointing along
+    ``heading``: (K, N, 3), the capture region's coordinates."""
+    v = np.array([math.cos(heading), math.sin(heading)])
+    across = Frame2D((0.0, 0.0), heading).y_axis  # the hand frame's y, as `Frame2D` has it
+    d = poses[None, :, :2] - starts[:, None, :]
+    theta = np.broadcast_to(wrap_angle(poses[:, 2] - heading), d.shape[:2])
+    return np.stack([d @ v, d @ across, theta], axis=-1)
+
+
 def _belief_masses(ctx: PlanningContext, name: str, pushes: list[PlannedPush]) -> list[float]:
     """For each push, the share of the belief's draws (`ObjectBelief.mass_draws`) its capture
     region holds within its distance: the chance that the push-grasp captures the true pose.
@@ -407,16 +415,10 @@ def _belief_masses(ctx: PlanningContext, name: str, pushes: list[PlannedPush]) -
     new = [p for p in pushes if _hand_key(name, p) not in ctx.push_masses]
     if new:
         with ctx.stats.timed("capture"):
-            heading, aperture = new[0].heading, new[0].aperture
-            draws = ctx.beliefs[name].mass_draws
-            region = ctx.push_region(ctx.beliefs[name].spec.footprint, aperture)
-            v = np.array([math.cos(heading), math.sin(heading)])
-            across = Frame2D((0.0, 0.0), heading).y_axis
+            region = ctx.push_region(ctx.beliefs[name].spec.footprint, new[0].aperture)
             starts = np.array([p.start for p in new])
-            d = draws[None, :, :2] - starts[:, None, :]  # (K, M, 2)
-            theta = np.broadcast_to(wrap_angle(draws[:, 2] - heading), d.shape[:2])
-            in_hand = np.stack([d @ v, d @ across, theta], axis=-1).reshape(-1, 3)
-            _, need = region.query(in_hand)
+            in_hand = _in_hands(ctx.beliefs[name].mass_draws, starts, new[0].heading)
+            _, need = region.query(in_hand.reshape(-1, 3))
             held = need.reshape(len(new), -1) <= np.array([p.distance for p in new])[:, None]
             for push, share in zip(new, held.mean(1), strict=True):
                 ctx.push_masses[_hand_key(name, push)] = float(share)
