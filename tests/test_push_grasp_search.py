@@ -562,19 +562,21 @@ def test_a_grasps_lift_and_carries_are_planned_once_for_every_goal(
 
 
 @pytest.mark.parametrize("kind", ["poptart_box", "soda_can"])
-def test_a_pushs_pilot_is_its_nu_os_row_of_the_detected_pose(
+def test_a_pushs_pilots_are_its_nu_os_rows_of_the_detection_and_the_extreme_samples(
     kind: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The pilot a push-grasp tests against avoidVol before nu_o is nu_o's own row of the
-    detected pose, to the bit: a pilot in avoidVol is nu_o in avoidVol, so refusing the push
-    on it refuses nothing nu_o would have allowed."""
+    """The pilots a push-grasp tests against avoidVol before nu_o are nu_o's own rows, to the
+    bit: the detected pose's under the first parameter set, then the extreme samples' under
+    every set. A pilot in avoidVol is nu_o in avoidVol, so refusing the push on it refuses
+    nothing nu_o would have allowed; and nu_o built on the pilots' rows is nu_o simulated
+    whole (every other push below drops its pilots before nu_o)."""
     push_grasp = importlib.import_module("planners.actions.push_grasp")
     ctx = _scene_context(("obj", kind, (0.70, -0.25, 0.4)))
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
-    asked: list[tuple[Any, Any]] = []
+    asked: list[tuple[Any, Any, Any]] = []
 
     def captured(*args: Any) -> Failure:
-        asked.append((args[-2], args[-1]))
+        asked.append((args[5][0], args[-2], args[-1]))
         return Failure("obj", "push-grasp", "stopped by the test")
 
     monkeypatch.setattr(push_grasp, "hand_in", captured)
@@ -583,19 +585,28 @@ def test_a_pushs_pilot_is_its_nu_os_row_of_the_detected_pose(
         if len(asked) == 10:
             break
     assert len(asked) >= 10
+    planned = [p for pushes in ctx.push_plans.values() for p in pushes if p is not None]
+    n = len(ctx.beliefs["obj"].samples)
     pushed = 0
-    for evolve, pilot in asked[:10]:
-        first = pilot()
-        nu = evolve()
-        assert first.shape == (len(nu), 1, 3)
-        np.testing.assert_array_equal(first[:, 0], nu[:, 0])
-        pushed += bool(np.ptp(first[:, 0, 0]) > 0.01)
-        assert pilot() is None  # nu_o itself is at hand from now on
+    for k, (start, evolve, pilots) in enumerate(asked[:10]):
+        (push,) = [p for p in planned if p.start is start]
+        extreme = push_grasp.extreme_samples(push.in_hand)
+        assert 1 <= len(extreme) <= 6 < n
+        detected, extremes = pilots()
+        if k % 2:
+            ctx.push_pilots.clear()
+        rows = evolve().reshape(len(detected), -1, n, 3)  # (stages, parameter sets, samples)
+        assert detected.shape == (len(rows), 1, 3)
+        np.testing.assert_array_equal(detected[:, 0], rows[:, 0, 0])
+        np.testing.assert_array_equal(extremes, rows[:, :, extreme].reshape(len(rows), -1, 3))
+        pushed += bool(np.ptp(detected[:, 0, 0]) > 0.01)
+        assert list(pilots()) == []  # nu_o itself is at hand from now on
     assert pushed  # pushes that move the object, not only grasps where it stands
 
 
 def test_a_push_whose_detected_pose_sweeps_into_avoid_is_refused_before_nu_o() -> None:
-    """`hand_in` tests the pilot's poses first and simulates nu_o only where they pass."""
+    """`hand_in` tests the pilots' poses first, stage by stage, and simulates nu_o only where
+    they all pass."""
     hand_in = importlib.import_module("planners.actions.hand_in")
     ctx = _scene_context(
         ("obj", "soda_can", (0.70, -0.25, 0.0)), ("wall", "soda_can", (0.8, -0.25, 0.0))
@@ -609,11 +620,23 @@ def test_a_push_whose_detected_pose_sweeps_into_avoid_is_refused_before_nu_o() -
         simulated.append(True)
         return np.repeat(clear, 3, axis=1)
 
-    assert hand_in._clear_evolution(ctx, "obj", avoid, evolve, lambda: into) is None
-    assert not simulated
-    nu = hand_in._clear_evolution(ctx, "obj", avoid, evolve, lambda: clear)
+    later: list[bool] = []
+
+    def pilots(*stages: np.ndarray) -> Any:
+        def run() -> Any:
+            for poses in stages:
+                yield poses
+                later.append(True)  # the next stage is computed only after this one passed
+
+        return run
+
+    assert hand_in._clear_evolution(ctx, "obj", avoid, evolve, pilots(into, clear)) is None
+    assert not simulated and not later
+    assert hand_in._clear_evolution(ctx, "obj", avoid, evolve, pilots(clear, into)) is None
+    assert not simulated and later
+    nu = hand_in._clear_evolution(ctx, "obj", avoid, evolve, pilots(clear, clear))
     assert nu is not None and simulated
-    assert hand_in._clear_evolution(ctx, "obj", avoid, lambda: into, lambda: None) is None
+    assert hand_in._clear_evolution(ctx, "obj", avoid, lambda: into, pilots()) is None
 
 
 def test_an_ik_answer_is_found_once_per_pose_obstacles_and_hand() -> None:

@@ -67,8 +67,9 @@ class PlanningContext:
         #: Push-grasp evolutions nu_o (world poses) by object, heading, aperture and offset:
         #: a push is the same under every parent candidate that asks to move the object.
         self.pushes: dict[tuple[str, float, float, float], np.ndarray] = {}
-        #: The detected pose's row of such an nu_o, simulated alone (`push_grasp._push_at`).
-        self.push_pilots: dict[tuple[str, float, float, float], np.ndarray] = {}
+        #: Rows of such an nu_o simulated before it, in the hand's frame: the detected pose's,
+        #: then the extreme samples' (`push_grasp._push_at`), until nu_o takes them.
+        self.push_pilots: dict[tuple[str, float, float, float], list[np.ndarray]] = {}
         #: Push-grasp hand motions by object, action, heading, aperture and avoidVol, with
         #: the failures met on the way (`push_grasp.HandInSearch`).
         self.hand_ins: dict[tuple[Hashable, ...], HandInSearch] = {}

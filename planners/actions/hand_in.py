@@ -6,7 +6,7 @@ grasps share these; pick-and-place (`planners.actions.pick_and_place`) has its o
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,14 +127,14 @@ def hand_in(
     heading: float,
     profile: PushGraspProfile,
     evolve: Callable[[], np.ndarray],
-    pilot: Callable[[], np.ndarray | None] | None = None,
+    pilots: Callable[[], Iterator[np.ndarray]] | None = None,
 ) -> HandIn | Failure:
     """The hand moves straight in, as low as the arm can hold it (`Arm.line_heights`), from
     ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
     ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible).
-    ``pilot()``, where given, is a few of nu_o's own poses, cheap to compute (None when nu_o
-    itself is at hand): tested against avoidVol first, they refuse the motion before nu_o is
-    simulated."""
+    ``pilots()``, where given, yields some of nu_o's own poses, cheapest first (nothing once
+    nu_o itself is at hand): each is tested against avoidVol before the next is computed, and
+    refuses the motion before nu_o is simulated."""
     start_xy, end_xy = line
     why, blocker = line_overlap(
         ctx, profile.pusher, line, heading, avoid, ctx.surface.top_z + PUSH_HEIGHT
@@ -164,7 +164,7 @@ def hand_in(
         why = "the arm hits avoidVol during the push"
     else:
         return Failure(name, action, why)
-    nu = _clear_evolution(ctx, name, avoid, evolve, pilot)
+    nu = _clear_evolution(ctx, name, avoid, evolve, pilots)
     if nu is None:
         return Failure(name, action, NU_INTO_AVOID)
     return HandIn(push, q_end, end_xy, heading, z, nu, profile)
@@ -175,15 +175,14 @@ def _clear_evolution(
     name: str,
     avoid: Volume,
     evolve: Callable[[], np.ndarray],
-    pilot: Callable[[], np.ndarray | None] | None,
+    pilots: Callable[[], Iterator[np.ndarray]] | None,
 ) -> np.ndarray | None:
-    """nu_o, or None where it sweeps into avoidVol (the pilot's poses tested first)."""
+    """nu_o, or None where it sweeps into avoidVol (the pilots' poses tested first)."""
     if not avoid.parts:  # an empty avoidVol (nothing to avoid) needs no swept volume
         return evolve()
-    first = None if pilot is None else pilot()
-    if first is not None:
+    for poses in () if pilots is None else pilots():
         with ctx.stats.timed("volumes"):
-            if ctx.sweeps_into(name, first, avoid):
+            if ctx.sweeps_into(name, poses, avoid):
                 return None
     nu = evolve()
     with ctx.stats.timed("volumes"):
