@@ -304,17 +304,18 @@ def simulate_push(
     x_min, _, y_min, y_max = pusher.bounds
     margin = 2.0 * step
     active = np.arange(big_n)
+    next_stop = np.append(checkpoints, np.inf)  # by next_cp: the next checkpoint, if any
     while active.size:
         p = poses[active]
         s = pushed[active]
-        cp = np.append(checkpoints, np.inf)[next_cp[active]]
+        cp = next_stop[next_cp[active]]
         limit = np.minimum(distance, cp) - s
         clear = pusher.clearance(p[:, :2]) - bound_r
         free = clear > margin
         move = np.where(free, np.minimum(clear - step, limit), np.minimum(step, limit))
         twist = np.zeros((len(p), 3))
         touching = np.zeros(len(p), dtype=bool)
-        busy = np.flatnonzero(~free & (move > 0))
+        busy = (~free & (move > 0)).nonzero()[0]
         if busy.size:
             twist[busy], touching[busy] = _contact_twist(
                 footprint,
@@ -326,17 +327,20 @@ def simulate_push(
                 margin,
                 step,
             )
-        rot = rotation_2d(p[:, 2])
-        world = np.einsum("nij,nj->ni", rot, twist[:, :2]) * move[:, None]
-        rel = world - np.stack([move, np.zeros_like(move)], axis=1)
+        # The twist's translation turned into the pusher's frame, per unit push, less the
+        # pusher's own motion along x.
+        cos, sin = np.cos(p[:, 2]), np.sin(p[:, 2])
+        rel_x = (cos * twist[:, 0] - sin * twist[:, 1]) * move - move
+        rel_y = (sin * twist[:, 0] + cos * twist[:, 1]) * move
         dtheta = twist[:, 2] * move
-        stationary = touching & (np.hypot(*rel.T) + bound_r * np.abs(dtheta) < 1e-4 * step)
-        p = p + np.column_stack([rel, dtheta])
+        stationary = touching & (np.hypot(rel_x, rel_y) + bound_r * np.abs(dtheta) < 1e-4 * step)
+        p[:, 0] += rel_x
+        p[:, 1] += rel_y
+        p[:, 2] += dtheta
         s = s + move
         poses[active], pushed[active] = p, s
-        hit = np.isclose(s, cp, rtol=0, atol=1e-12)
-        for k in np.flatnonzero(hit):
-            recorded[next_cp[active[k]], active[k]] = p[k]
+        hit = (np.abs(s - cp) <= 1e-12).nonzero()[0]
+        recorded[next_cp[active[hit]], active[hit]] = p[hit]
         next_cp[active[hit]] += 1
         gone = (p[:, 0] + bound_r < x_min - margin) | (p[:, 1] - bound_r > y_max + margin)
         gone |= p[:, 1] + bound_r < y_min - margin
@@ -344,7 +348,7 @@ def simulate_push(
         if watch is not None:
             done |= np.asarray(watch(PushState(active, s, p, touching, stationary)), bool)
         else:
-            fixed = np.flatnonzero(stationary & ~done)
+            fixed = (stationary & ~done).nonzero()[0]
             for k in fixed:
                 recorded[next_cp[active[k]] :, active[k]] = p[k]
             next_cp[active[fixed]] = len(checkpoints)
