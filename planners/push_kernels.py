@@ -374,6 +374,24 @@ def _box_candidates(
 
 
 @njit(cache=True)
+def _nearest(gaps: np.ndarray, nearest: np.ndarray) -> int:
+    """The indices of the ``len(nearest)`` smallest ``gaps``, smallest first and ties to the
+    first (a stable sort's first entries), written into ``nearest``; how many there are."""
+    kept = 0
+    for i in range(len(gaps)):
+        g = gaps[i]
+        if kept == len(nearest) and not g < gaps[nearest[kept - 1]]:
+            continue
+        j = min(kept, len(nearest) - 1)  # the slot it takes, then moved up past larger gaps
+        while j > 0 and g < gaps[nearest[j - 1]]:
+            nearest[j] = nearest[j - 1]
+            j -= 1
+        nearest[j] = i
+        kept = min(kept + 1, len(nearest))
+    return kept
+
+
+@njit(cache=True)
 def contact_twists(
     box: bool,
     radius: float,
@@ -398,6 +416,7 @@ def contact_twists(
     gaps, points, normals = np.empty(size), np.empty((size, 2)), np.empty((size, 2))
     r, n, vp = np.empty((MAX_CONTACTS, 2)), np.empty((MAX_CONTACTS, 2)), np.empty((MAX_CONTACTS, 2))
     forces = np.empty(2 * MAX_CONTACTS)
+    nearest = np.empty(MAX_CONTACTS, dtype=np.int64)
     twist = np.zeros((len(poses), 3))
     touching = np.zeros(len(poses), dtype=np.bool_)
     rate = margin / step
@@ -417,10 +436,10 @@ def contact_twists(
             points,
             normals,
         )
-        nearest = np.argsort(gaps, kind="mergesort")[:MAX_CONTACTS]
+        kept = _nearest(gaps, nearest)
         cos, sin = math.cos(theta), math.sin(theta)
         m = 0
-        for q in range(len(nearest)):
+        for q in range(kept):
             o = nearest[q]
             m += gaps[o] < margin
             # Into the object frame: r = R^T (point - centre), n = R^T normal; the pusher's +x

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from clutter_gym.model.objects import OBJECTS, Footprint
 from planners.hand2d import push_grasp_profile, sweep_profile
-from planners.push_kernels import STICK
+from planners.push_kernels import MAX_CONTACTS, STICK, _nearest
 from planners.push_simulation import (
     ConvexPolygon,
     Pusher,
@@ -267,3 +267,17 @@ def test_overlap_test_agrees_with_the_smallest_gap(kind: str, hand: str) -> None
         found = overlaps(footprint, pusher, poses, depth)
         assert found.any() and not found.all()
         np.testing.assert_array_equal(found, gap < -depth)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from([-0.01, 0.0, 0.002, 0.002, 0.03, np.inf]), max_size=12))
+def test_the_nearest_contacts_are_a_stable_sorts_first(gaps: list[float]) -> None:
+    """The contact kernel keeps the MAX_CONTACTS smallest gaps, smallest first and equal gaps
+    in their order (ties are common: a box's corner and the hand's vertex meet at one gap),
+    as a stable sort would."""
+    values = np.array(gaps, dtype=float)
+    nearest = np.full(MAX_CONTACTS, -1, dtype=np.int64)
+    kept = _nearest(values, nearest)
+    expected = np.argsort(values, kind="stable")[:MAX_CONTACTS]
+    assert kept == len(expected)
+    np.testing.assert_array_equal(nearest[:kept], expected)
