@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -87,8 +88,9 @@ class _Grid:
         period = np.pi if footprint.shape == "box" else 0.0
         return cls(float(ys[0]), float(ys[1] - ys[0]), period, float(arrays["x_start"]))
 
-    def cells(self, poses: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, ...]:
-        """Flat indices (N, 4) of the nodes around each pose, and whether the cell exists."""
+    def cell(self, poses: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """The flat index (N,) of each pose's cell in an `over_cells` array of node values of
+        ``shape``, and whether the cell exists."""
         ny, nt = shape
         fy = (poses[:, 1] - self.y0) / self.dy
         i0 = np.floor(fy).astype(int)
@@ -97,11 +99,18 @@ class _Grid:
         if self.theta_period:
             ft = np.mod(poses[:, 2], self.theta_period) / (self.theta_period / nt)
             j0 = np.floor(ft).astype(int) % nt
-            j1 = (j0 + 1) % nt
         else:
-            j0 = j1 = np.zeros(len(poses), dtype=int)
-        flat = np.stack([i0 * nt + j0, (i0 + 1) * nt + j0, i0 * nt + j1, (i0 + 1) * nt + j1], 1)
-        return flat, ok
+            j0 = np.zeros(len(poses), dtype=int)
+        return i0 * nt + j0, ok
+
+    def over_cells(self, values: np.ndarray, reduce: np.ufunc) -> np.ndarray:
+        """``reduce`` (np.maximum or np.minimum) of node ``values`` (ny, nt) over the four
+        nodes around each cell, (ny - 1, nt): computed once per region, so that a lookup
+        (the conservative worst of the nodes) reads one value per pose."""
+        low, high = values[:-1], values[1:]
+        if not self.theta_period:  # a cylinder's poses all read theta's first column
+            return reduce(low, high)
+        return reduce(reduce(low, high), reduce(np.roll(low, -1, 1), np.roll(high, -1, 1)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,12 +157,20 @@ class CaptureRegion:
         0 when the object is already in the hand. Outside poses get distance inf.
         """
         p = _check_poses(poses)
-        flat, ok = self.grid.cells(p, self.s_req.shape)
-        s_req = self.s_req.ravel()[flat].max(1)
-        x_contact = self.grid.x_start - self.s_contact.ravel()[flat].min(1)
+        index, ok = self.grid.cell(p, self.s_req.shape)
+        s_req = self._cell_req[index]
+        x_contact = self.grid.x_start - self._cell_contact[index]
         d = np.maximum(s_req - (self.grid.x_start - p[:, 0]), 0.0)
         inside = ok & np.isfinite(s_req) & (p[:, 0] >= x_contact) & (d <= self.d_max)
         return inside, np.where(inside, d, np.inf)
+
+    @cached_property
+    def _cell_req(self) -> np.ndarray:
+        return self.grid.over_cells(self.s_req, np.maximum).ravel()
+
+    @cached_property
+    def _cell_contact(self) -> np.ndarray:
+        return self.grid.over_cells(self.s_contact, np.minimum).ravel()
 
     def contains(self, poses: np.ndarray, push_distance: float) -> np.ndarray:
         """Membership in the region of a push of ``push_distance`` (<= D_max): nested in it."""
@@ -260,10 +277,10 @@ class SweepRegion:
         distance = self.d_max if distance is None else distance
         if not 0.0 <= distance <= self.d_max:
             raise ValueError(f"sweep distance {distance!r} must be in [0, {self.d_max}]")
-        flat, ok = self.grid.cells(p, self.s_contact.shape)
+        index, ok = self.grid.cell(p, self.s_contact.shape)
         shift = p[:, 0] - self.grid.x_start
-        contact = self.s_contact.ravel()[flat].max(1) + shift
-        escape = self.s_escape.ravel()[flat].min(1) + shift
+        contact = self._cell_contact[index] + shift
+        escape = self._cell_escape[index] + shift
         inside = ok & (contact >= 0) & (contact <= distance) & (escape > distance)
         return inside, np.where(inside, contact, np.inf)
 
@@ -271,12 +288,20 @@ class SweepRegion:
         """The longest sweep that keeps every pose (the region's escape distances: a sample
         lost at one distance is lost at every longer one); 0 if some pose is never held."""
         p = _check_poses(poses)
-        flat, ok = self.grid.cells(p, self.s_contact.shape)
+        index, ok = self.grid.cell(p, self.s_contact.shape)
         if not ok.all():
             return 0.0
         shift = p[:, 0] - self.grid.x_start
-        escape = float((self.s_escape.ravel()[flat].min(1) + shift).min())
+        escape = float((self._cell_escape[index] + shift).min())
         return max(0.0, min(self.d_max, escape))
+
+    @cached_property
+    def _cell_contact(self) -> np.ndarray:
+        return self.grid.over_cells(self.s_contact, np.maximum).ravel()
+
+    @cached_property
+    def _cell_escape(self) -> np.ndarray:
+        return self.grid.over_cells(self.s_escape, np.minimum).ravel()
 
     def evolve(
         self,

@@ -6,6 +6,7 @@ import shutil
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -335,3 +336,65 @@ def test_an_unwritable_cache_still_gives_the_region(tmp_path: Path) -> None:
     with pytest.warns(UserWarning, match="could not be written"):
         region = push_grasp_region(CAN, 0.12, coarse, cache_dir=blocker / "capture")
     assert np.isfinite(region.s_req).any()
+
+
+@pytest.mark.parametrize(
+    ("kind", "action"),
+    [
+        ("soda_can", "push"),
+        ("poptart_box", "push"),
+        ("poptart_box", "sweep"),
+        ("large_box", "sweep"),
+    ],
+)
+def test_a_lookup_reads_the_worst_of_the_four_nodes_around_a_pose(kind: str, action: str) -> None:
+    """Push distances read at a pose are the most conservative of the grid nodes around it:
+    the largest need and earliest escape of the two lateral neighbours at the two orientation
+    neighbours (a box's orientation wraps at pi; a cylinder has one). Checked against the nodes
+    read one by one, on random poses across the region and beyond its edges."""
+    footprint = OBJECTS[kind].footprint
+    rng = np.random.default_rng(3)
+    if action == "push":
+        region: Any = push_grasp_region(footprint, default_aperture(footprint))
+        need, early = region.s_req, region.s_contact
+    else:
+        region = sweep_region(footprint)
+        need, early = region.s_contact, region.s_escape
+    grid, (ny, nt) = region.grid, need.shape
+    ys = grid.y0 + grid.dy * np.arange(ny)
+    poses = np.column_stack(
+        [
+            grid.x_start + rng.uniform(-0.05, 0.3, 500),
+            rng.uniform(ys[0] - 0.02, ys[-1] + 0.02, 500),
+            rng.uniform(-2 * np.pi, 2 * np.pi, 500),
+        ]
+    )
+    if action == "push":
+        inside, distance = region.query(poses)
+    else:
+        inside, distance = region.query(poses, distance=region.d_max)
+    for pose, kept, d in zip(poses, inside, distance, strict=True):
+        i = int(np.floor((pose[1] - grid.y0) / grid.dy))
+        if not 0 <= i <= ny - 2:
+            assert not kept
+            continue
+        if grid.theta_period:
+            j = int(np.floor(np.mod(pose[2], np.pi) / (np.pi / nt))) % nt
+            columns = [j, (j + 1) % nt]
+        else:
+            columns = [0]
+        worst = max(need[r, c] for r in (i, i + 1) for c in columns)
+        first = min(early[r, c] for r in (i, i + 1) for c in columns)
+        shift = pose[0] - grid.x_start
+        if action == "push":
+            d_need = max(worst - (grid.x_start - pose[0]), 0.0)
+            expected = (
+                np.isfinite(worst) and pose[0] >= grid.x_start - first and d_need <= region.d_max
+            )
+            assert kept == expected
+            assert d == (d_need if expected else np.inf)
+        else:
+            contact, escape = worst + shift, first + shift
+            expected = 0 <= contact <= region.d_max < escape
+            assert kept == expected
+            assert d == (contact if expected else np.inf)
