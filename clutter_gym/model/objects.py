@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -168,14 +169,15 @@ class ObjectSpec:
                 f" more than MAX_GRASP_WIDTH={MAX_GRASP_WIDTH} m, so it cannot be graspable"
             )
 
-    @property
+    @cached_property
     def height(self) -> float:
         return max(p.xyz[2] + p.height / 2 for p in self.primitives)
 
-    @property
+    @cached_property
     def footprint(self) -> Footprint:
         """Cylinders on the vertical axis have a circular outline; otherwise the box about the
-        axis that covers every primitive."""
+        axis that covers every primitive (computed once: the planner asks for it in every
+        collision and overlap test)."""
         if all(p.kind == "cylinder" and p.xyz[:2] == (0, 0) for p in self.primitives):
             return Footprint("circle", radius=max(p.dims[0] for p in self.primitives))
         hx = max(abs(p.xyz[0]) + p.half_xy[0] for p in self.primitives)
