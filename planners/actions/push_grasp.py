@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -30,7 +31,7 @@ from planners.actions.heuristics import push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.actions.static_grasp import static_grasp
-from planners.capture import extreme_parameters, push_grasp_apertures
+from planners.capture import CaptureRegion, extreme_parameters, push_grasp_apertures
 from planners.hand2d import default_aperture, push_grasp_profile
 
 HEADING_REFINE = 3
@@ -440,22 +441,36 @@ class _PushEvolution:
     both kept in the plan's context for every later candidate with this push."""
 
     def __init__(self, ctx: PlanningContext, name: str, push: PlannedPush) -> None:
+        # Only what every candidate needs: most never reach nu_o (the hand's overlap, IK and
+        # the arm's motion refuse them first), so the rest is computed when first asked for.
         self.ctx = ctx
+        self.name = name
         self.push = push
         self.key = (name, push.heading, push.aperture, push.offset)
-        self.region = ctx.push_region(ctx.beliefs[name].spec.footprint, push.aperture)
-        self.frame = Frame2D((float(push.start[0]), float(push.start[1])), push.heading)
-        self.stages = max(1, math.ceil(push.distance / NU_SPACING))
-        self.advances = np.linspace(0.0, push.distance, self.stages + 1)
-        self.chosen = extreme_parameters(self.region.mus, self.region.cs)
+
+    @cached_property
+    def _region(self) -> CaptureRegion:
+        return self.ctx.push_region(self.ctx.beliefs[self.name].spec.footprint, self.push.aperture)
+
+    @cached_property
+    def _stages(self) -> int:
+        return max(1, math.ceil(self.push.distance / NU_SPACING))
+
+    @cached_property
+    def _chosen(self) -> np.ndarray:
+        return extreme_parameters(self._region.mus, self._region.cs)
+
+    @cached_property
+    def _extremes(self) -> np.ndarray:
+        return extreme_samples(self.push.in_hand)
 
     def _simulate(self, samples: np.ndarray | slice, parameters: np.ndarray) -> np.ndarray:
         """Rows of nu_o in the hand's frame (stages, parameter sets, samples, 3): each sample
         is simulated on its own, so a subset gives nu_o's own rows, to the bit."""
         push = self.push
         with self.ctx.stats.timed("nu"):
-            return self.region.evolve(
-                push.in_hand[samples], push.distance, self.stages, NU_STEP, parameters
+            return self._region.evolve(
+                push.in_hand[samples], push.distance, self._stages, NU_STEP, parameters
             )
 
     def _part(self, stage: int) -> np.ndarray:
@@ -463,14 +478,18 @@ class _PushEvolution:
         1: the `extreme_samples` under every set), simulated once per push and plan."""
         parts = self.ctx.push_pilots.setdefault(self.key, [])
         if len(parts) == 0:
-            parts.append(self._simulate(slice(0, 1), self.chosen[:1]))
+            parts.append(self._simulate(slice(0, 1), self._chosen[:1]))
         if stage == 1 and len(parts) == 1:
-            parts.append(self._simulate(extreme_samples(self.push.in_hand), self.chosen))
+            parts.append(self._simulate(self._extremes, self._chosen))
         return parts[stage]
 
     def _to_world(self, in_hand: np.ndarray) -> np.ndarray:
+        """Hand-frame rows to the world, the hand advancing stage by stage along the push."""
+        push = self.push
         with self.ctx.stats.timed("nu"):
-            return self.frame.moving_to_world(in_hand, self.advances)
+            frame = Frame2D((float(push.start[0]), float(push.start[1])), push.heading)
+            advances = np.linspace(0.0, push.distance, self._stages + 1)
+            return frame.moving_to_world(in_hand, advances)
 
     def evolve(self) -> np.ndarray:
         """nu_o, on the pilots' rows where they were simulated."""
@@ -480,14 +499,13 @@ class _PushEvolution:
         parts = ctx.push_pilots.pop(key, [])  # nu_o holds them
         samples = len(self.push.in_hand)
         if len(parts) < 2:
-            nu_hand = self._simulate(slice(None), self.chosen)
+            nu_hand = self._simulate(slice(None), self._chosen)
         else:
-            extremes = extreme_samples(self.push.in_hand)
-            nu_hand = np.empty((self.stages + 1, len(self.chosen), samples, 3))
-            nu_hand[:, :, extremes] = parts[1]
-            rest = np.setdiff1d(np.arange(samples), extremes)
+            nu_hand = np.empty((self._stages + 1, len(self._chosen), samples, 3))
+            nu_hand[:, :, self._extremes] = parts[1]
+            rest = np.setdiff1d(np.arange(samples), self._extremes)
             if len(rest):
-                nu_hand[:, :, rest] = self._simulate(rest, self.chosen)
+                nu_hand[:, :, rest] = self._simulate(rest, self._chosen)
         nu = self._to_world(nu_hand)
         nu.setflags(write=False)  # shared by every later candidate with this push
         ctx.pushes[key] = nu
