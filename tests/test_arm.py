@@ -12,7 +12,14 @@ from clutter_gym.model.collision import RobotCollision, Volume, interpolate
 from clutter_gym.model.herb import RIGHT_ARM_START, HandCommand
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.world import SHELF, TABLE, Surface
-from planners.actions.arm import ARM_CHECK_STEP, ELBOW_RADIUS, END_ZONE, GOTO_CLEARANCE, Arm
+from planners.actions.arm import (
+    ARM_CHECK_STEP,
+    ELBOW_RADIUS,
+    END_ZONE,
+    GOTO_CLEARANCE,
+    SWING_DEVIATION,
+    Arm,
+)
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 
 #: Hands in the shelf, each (hand_base x, y, heading): poses whose IK solution nearest the home
@@ -206,6 +213,38 @@ def test_in_the_shelf_a_line_is_not_traced_from_a_start_with_the_elbow_inside() 
     assert arm.straight(q_end, start, free) is None
     assert elbow_in_shelf(arm, q_start) and arm.straight(q_start, end, free) is not None
     assert arm.line(q_end, start, end, free) is None
+
+
+def test_in_the_shelf_a_lift_swings_the_elbow_from_under_the_ceiling() -> None:
+    """A level hand in the shelf whose solution holds the elbow just under the cubby's ceiling:
+    lifted 2 cm on its own branch the elbow meets the ceiling; `Arm.straight` swings it to
+    another solution of the waypoint, the joints' motion between waypoints clear of the shelf
+    and the hand within `SWING_DEVIATION` of the line. On the table no line swings."""
+    arm = make_arm(SHELF)
+    closed = HandCommand(0.0, 1.0)
+    free = arm.free_check(Volume(), closed)
+    start = hand_pose(np.array([0.66, -0.30]), np.radians(40.0), SHELF.top_z + 0.075)
+    q0 = arm.solve(start, free)
+    assert q0 is not None
+    lifted = start.copy()
+    lifted[2, 3] += 0.02
+    assert arm.kinematics.cartesian_path(q0, lifted, 2, accept=free) is None
+    path = arm.straight(q0, lifted, free)
+    assert path is not None
+    dense = interpolate(path, ARM_CHECK_STEP)
+    assert len(dense) > len(path)  # the elbow swung: more than one check between waypoints
+    assert all(free(q) for q in dense)
+    tcp = np.array([arm.kinematics.fk_tcp(q)[:3, 3] for q in dense])
+    off_line = tcp[:, :2] - start[:2, 3]
+    assert np.abs(off_line).max() <= SWING_DEVIATION
+    np.testing.assert_allclose(arm.kinematics.fk_tcp(path[-1]), lifted, atol=1e-3)
+    ceiling = arm.kinematics.elbow_points(q0[None])[0, 2] + 1e-4
+
+    def under(q: np.ndarray) -> bool:
+        return bool(arm.kinematics.elbow_points(q[None])[0, 2] <= ceiling)
+
+    assert arm.straight(q0, lifted, under) is not None
+    assert make_arm(TABLE).straight(q0, lifted, under) is None
 
 
 def test_a_line_traced_back_from_the_end_is_kept() -> None:

@@ -306,6 +306,33 @@ def test_cartesian_path_continues_from_analytic_solutions(monkeypatch: pytest.Mo
         assert_pose_close(kin.fk_tcp(q), waypoint, 1e-6, 1e-6)
 
 
+def test_a_cartesian_path_may_swing_the_elbow_where_its_waypoint_is_refused() -> None:
+    """A 2 cm lift under a 'ceiling' just above the elbow: the continuous solution raises the
+    elbow into it, so the plain line fails; with ``connect`` the refused waypoint is another
+    solution of its pose within the jump limit, and only where ``connect`` takes the motion."""
+    kin = ArmKinematics("right")
+    start = hand_pose(np.array([0.70, -0.20]), np.radians(30.0), 0.81)
+    q0 = kin.solve_ik(start)
+    assert q0 is not None
+    ceiling = kin.elbow_points(q0[None])[0, 2] + 1e-4
+    target = start.copy()
+    target[2, 3] += 0.02
+
+    def under(q: np.ndarray) -> bool:
+        return bool(kin.elbow_points(q[None])[0, 2] <= ceiling)
+
+    assert kin.cartesian_path(q0, target, 3) is not None  # the lift itself is reachable
+    assert kin.cartesian_path(q0, target, 3, accept=under) is None
+    assert kin.cartesian_path(q0, target, 3, accept=under, connect=lambda a, b: False) is None
+    path = kin.cartesian_path(q0, target, 3, accept=under, connect=lambda a, b: True)
+    assert path is not None and all(under(q) for q in path)
+    assert np.max(np.abs(np.diff(path, axis=0))) <= 0.3
+    for s, q in zip(np.linspace(0.0, 1.0, 3), path, strict=True):
+        waypoint = start.copy()
+        waypoint[2, 3] += s * 0.02
+        assert_pose_close(kin.fk_tcp(q), waypoint, 1e-4, 1e-3)
+
+
 def test_bench_ik_writes_json(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
     from agents.cli import main
     from agents.experiments.speed.ik_speed import ANALYTIC, PREVIOUS

@@ -370,6 +370,7 @@ class ArmKinematics:
         max_jump: float = 0.3,
         pos_tol: float = 1e-4,
         rot_tol: float = 1e-3,
+        connect: Callable[[np.ndarray, np.ndarray], bool] | None = None,
     ) -> np.ndarray | None:
         """Joint path (n_waypoints, 7) moving the tcp on a straight line (slerp in rotation).
 
@@ -378,6 +379,11 @@ class ArmKinematics:
         singularity), the analytic solution nearest the previous waypoint stands in. The path
         is rejected (None) if a waypoint has no solution or fails ``accept``, or if any joint
         jumps more than ``max_jump`` rad between consecutive waypoints.
+
+        With ``connect`` (a test of the joint motion from one waypoint to the next), a waypoint
+        that would reject the path is taken instead from the pose's other analytic solutions
+        within ``max_jump`` of the previous waypoint, nearest first: the first that ``accept``
+        and ``connect`` both take (`swung_waypoint`).
         """
         if n_waypoints < 2:
             raise ValueError("n_waypoints must be at least 2")
@@ -394,9 +400,34 @@ class ArmKinematics:
             q = self._descend(pose, q_prev, pos_tol, rot_tol, max_iter=100)
             if q is None:
                 q = self.solve_ik(pose, q_prev)
-            if q is None or np.max(np.abs(q - q_prev)) > max_jump:
-                return None
-            if accept is not None and not accept(q):
+            if q is not None and (
+                np.max(np.abs(q - q_prev)) > max_jump or (accept is not None and not accept(q))
+            ):
+                q = None
+            if q is None and connect is not None:
+                q = self.swung_waypoint(pose, q_prev, accept, connect, max_jump)
+            if q is None:
                 return None
             path[k] = q_prev = q
         return path
+
+    def swung_waypoint(
+        self,
+        pose: np.ndarray,
+        q_prev: np.ndarray,
+        accept: Accept | None,
+        connect: Callable[[np.ndarray, np.ndarray], bool],
+        max_jump: float,
+    ) -> np.ndarray | None:
+        """A configuration at ``pose`` within ``max_jump`` of ``q_prev`` (in every joint) that
+        ``accept`` takes and that ``connect`` takes the motion from ``q_prev`` to, nearest
+        first, or None: a straight line whose continuous solution runs the elbow into
+        something (under a shelf's ceiling, a 5 mm lift does) may go on with the elbow swung
+        about the shoulder-wrist axis, another j3 of the same pose. At most `MAX_CHECKS`
+        configurations are tried."""
+        solutions = self.ik_solutions(pose, q_prev)
+        near = solutions[np.max(np.abs(solutions - q_prev), axis=1) <= max_jump]
+        for q in near[:MAX_CHECKS]:
+            if (accept is None or accept(q)) and connect(q_prev, q):
+                return q.copy()
+        return None

@@ -25,6 +25,7 @@ from clutter_gym.model.herb import HandCommand, hand_transition
 from clutter_gym.model.kinematics import ArmKinematics
 from clutter_gym.model.reachability import HEIGHTS, shipped_map
 from clutter_gym.model.trajectory import Segment, Trajectory
+from clutter_gym.model.transforms import rotation_log
 from clutter_gym.model.world import Surface
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.goto import NO_PATH, JointConstraint, plan_goto
@@ -52,6 +53,11 @@ about to push) before the clearance holds."""
 BACK_OUT = (0.25, 0.15)
 """m the hand backs straight out of a narrow pocket before GoTo plans again (`Arm.goto`),
 longest first."""
+SWING_DEVIATION = 0.01
+"""m the TCP may leave the straight line while a swung waypoint turns the elbow
+(`Arm.straight`: the joints move linearly between waypoints, and the hand with them)."""
+SWING_TILT = 0.1
+"""rad the hand may turn away from the line's orientation meanwhile."""
 
 Free = Callable[[np.ndarray], bool]
 """Whether the arm is collision-free at a configuration (the ``accept`` of IK)."""
@@ -260,11 +266,47 @@ class Arm:
         return self.reach.may_reach(hand_base, heading, height) is False
 
     def straight(self, q_start: np.ndarray, target: np.ndarray, accept: Free) -> np.ndarray | None:
-        """Straight TCP line from q_start to target (4x4), waypoints every WAYPOINT_SPACING."""
+        """Straight TCP line from q_start to target (4x4), waypoints every WAYPOINT_SPACING.
+        In an enclosed surface (the shelf) a waypoint that would end the line may swing the
+        elbow to another solution of its pose (`ArmKinematics.swung_waypoint`) where the
+        motion there is clear at every `ARM_CHECK_STEP` and keeps the hand on the line
+        (`_swing_keeps_line`): under the cubby's ceiling the elbow of a push's end often
+        stands within millimetres of it, and the goal's 2 cm lift, the pull out or the next
+        line would run it in. On shelf high scenes 0-49 (pushing, sigma2, planning alone)
+        this planned 18 scenes where lines without it planned 15, and lost none."""
         distance = float(np.linalg.norm(target[:3, 3] - self.kinematics.fk_tcp(q_start)[:3, 3]))
         n = max(2, math.ceil(distance / WAYPOINT_SPACING) + 1)
+        connect = None
+        if self.surface.interior is not None:
+
+            def connect(q_from: np.ndarray, q_to: np.ndarray) -> bool:
+                return self._swing_keeps_line(q_from, q_to, accept)
+
         with self.stats.timed("ik"):
-            return self.kinematics.cartesian_path(q_start, target, n, accept=accept)
+            return self.kinematics.cartesian_path(
+                q_start, target, n, accept=accept, connect=connect
+            )
+
+    def _swing_keeps_line(self, q_from: np.ndarray, q_to: np.ndarray, accept: Free) -> bool:
+        """Whether the joints moving linearly from ``q_from`` to ``q_to`` (two waypoints of a
+        straight line) keep the arm clear (``accept`` every `ARM_CHECK_STEP`), the TCP within
+        `SWING_DEVIATION` of the line and the hand within `SWING_TILT` more than the
+        waypoints' own turn of the first waypoint's orientation."""
+        between = interpolate(np.stack([q_from, q_to]), ARM_CHECK_STEP)[1:-1]
+        if not len(between):
+            return True
+        first, last = (self.kinematics.fk_tcp(q) for q in (q_from, q_to))
+        p0 = first[:3, 3]
+        axis = (last[:3, 3] - p0) / max(float(np.linalg.norm(last[:3, 3] - p0)), 1e-12)
+        turn = _angle(last[:3, :3] @ first[:3, :3].T) + SWING_TILT
+        for q in between:
+            tcp = self.kinematics.fk_tcp(q)
+            offset = tcp[:3, 3] - p0
+            if np.linalg.norm(offset - (offset @ axis) * axis) > SWING_DEVIATION:
+                return False
+            if _angle(tcp[:3, :3] @ first[:3, :3].T) > turn:
+                return False
+        return all(accept(q) for q in between)
 
     def line(
         self,
@@ -384,3 +426,8 @@ class Arm:
                 max_evaluations=self.settings.goto_evaluations,
             )
         return result.path, result.reason
+
+
+def _angle(rotation: np.ndarray) -> float:
+    """The angle (rad) of a rotation matrix."""
+    return float(np.linalg.norm(rotation_log(rotation)))
