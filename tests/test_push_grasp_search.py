@@ -591,7 +591,8 @@ def test_a_pushs_pilots_are_its_nu_os_rows_of_the_detection_and_the_extreme_samp
     for k, (start, evolve, pilots) in enumerate(asked[:10]):
         (push,) = [p for p in planned if p.start is start]
         extreme = push_grasp.extreme_samples(push.in_hand)
-        assert 1 <= len(extreme) <= 6
+        ends = {int(f(push.in_hand[:, c])) for c in range(3) for f in (np.argmin, np.argmax)}
+        assert extreme.tolist() == sorted(ends) and len(extreme) <= 6
         assert len(extreme) < n  # the pilots are a part of nu_o, not all of it
         detected, extremes = pilots()
         if k % 2:
