@@ -196,6 +196,23 @@ def test_solve_ik_returns_the_solution_nearest_the_seed(right: ArmKinematics) ->
         assert np.all(np.diff(distances) >= 0)
 
 
+def test_ik_solutions_within_a_j3_window_are_the_full_sweeps_rows_there(
+    right: ArmKinematics,
+) -> None:
+    """``j3_within`` solves only near the seed's j3 (the swung waypoint's search): exactly the
+    rows of the whole sweep whose j3 lies in the window, in the same order."""
+    rng = np.random.default_rng(11)
+    compared = 0
+    for q in rng.uniform(right.lower, right.upper, size=(200, 7)):
+        target = right.fk_tcp(q)
+        seed = np.clip(q + rng.normal(0.0, 0.2, 7), right.lower, right.upper)
+        full = right.ik_solutions(target, seed)
+        window = right.ik_solutions(target, seed, j3_within=0.3)
+        np.testing.assert_array_equal(window, full[np.abs(full[:, 2] - seed[2]) <= 0.3])
+        compared += len(window) > 0 and len(window) < len(full)
+    assert compared > 100
+
+
 def test_ik_respects_accept(right: ArmKinematics) -> None:
     target = right.fk_tcp(hm.RIGHT_ARM_HOME)
     verdicts: list[bool] = []

@@ -233,10 +233,18 @@ class ArmKinematics:
         # DH frame 3 sits on the elbow (j4) axis, frame 5 on the wrist centre.
         return float(frames[3][2, 3] - 0.5 * (frames[0][2, 3] + frames[5][2, 3]))
 
-    def ik_solutions(self, target: np.ndarray, seed: np.ndarray | None = None) -> np.ndarray:
+    def ik_solutions(
+        self,
+        target: np.ndarray,
+        seed: np.ndarray | None = None,
+        j3_within: float | None = None,
+    ) -> np.ndarray:
         """Every in-limit configuration (N, 7) putting ``{side}_hand_tcp`` at ``target`` (4x4),
         for `J3_SAMPLES` values of j3 and the seed's own, nearest to ``seed`` (default the home
         pose) first; empty (0, 7) when no configuration within the limits reaches the pose.
+        With ``j3_within`` only the grid's j3 values within that many rad of the seed's j3 are
+        solved for: the rows of the whole sweep with such a j3, in the same order, for a
+        fraction of the cost (a caller that wants solutions near the seed).
 
         Each row reaches the pose to `POSE_TOLERANCE` (checked by FK), so callers need no
         descent afterwards; only j3 is sampled, the pose is exact.
@@ -258,7 +266,11 @@ class ArmKinematics:
         if not np.isfinite(q4).any():
             return np.empty((0, 7))
         # The wrist centre in DH frame 2, for every elbow and j3: (2, J).
-        j3 = np.append(self._j3_grid, np.clip(reference[2], self.lower[2], self.upper[2]))
+        own = np.clip(reference[2], self.lower[2], self.upper[2])
+        grid = self._j3_grid
+        if j3_within is not None:
+            grid = grid[np.abs(grid - reference[2]) <= j3_within]
+        j3 = np.append(grid, own)
         wx, wy = a4 * np.cos(q4) + d5 * np.sin(q4), a4 * np.sin(q4) - d5 * np.cos(q4)
         vx = (a3 + wx)[:, None] * np.cos(j3)
         vy = (a3 + wx)[:, None] * np.sin(j3)
@@ -425,7 +437,7 @@ class ArmKinematics:
         something (under a shelf's ceiling, a 5 mm lift does) may go on with the elbow swung
         about the shoulder-wrist axis, another j3 of the same pose. At most `MAX_CHECKS`
         configurations are tried."""
-        solutions = self.ik_solutions(pose, q_prev)
+        solutions = self.ik_solutions(pose, q_prev, j3_within=max_jump)
         near = solutions[np.max(np.abs(solutions - q_prev), axis=1) <= max_jump]
         for q in near[:MAX_CHECKS]:
             if (accept is None or accept(q)) and connect(q_prev, q):
