@@ -362,3 +362,5 @@ def test_bench_ik_writes_json(tmp_path: Path, capfd: pytest.CaptureFixture[str])
     for name in (ANALYTIC, PREVIOUS):
         assert result[name]["calls_per_s"] > 0 and 0 <= result[name]["success_rate"] <= 1
     assert result["found_only_by_analytic"] >= 0 and result["found_only_by_lm_restarts"] >= 0
+    assert set(result["solutions_ms"]) == {"full_sweep", "j3_window"}
+    assert all(ms > 0 for ms in result["solutions_ms"].values())

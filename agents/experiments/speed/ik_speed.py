@@ -91,7 +91,8 @@ def _elbow_up(kinematics: ArmKinematics, rng: np.random.Generator) -> np.ndarray
 
 def bench_ik(samples: int = 500, seed: int = 0) -> dict[str, Any]:
     """Calls per second, ms per successful and per failed call and success rate of each
-    solver on the same targets, and how many targets one solves that the other does not."""
+    solver on the same targets, how many targets one solves that the other does not, and the
+    analytic solutions' cost over the whole j3 sweep and within a swung waypoint's window."""
     if samples < 1:
         raise ValueError(f"samples: {samples}; must be >= 1")
     kinematics = ArmKinematics("right")
@@ -125,7 +126,25 @@ def bench_ik(samples: int = 500, seed: int = 0) -> dict[str, Any]:
     ours, previous = np.array(solved[ANALYTIC]), np.array(solved[PREVIOUS])
     result["found_only_by_analytic"] = int(np.sum(ours & ~previous))
     result["found_only_by_lm_restarts"] = int(np.sum(previous & ~ours))
+    result["solutions_ms"] = _sweep_ms(kinematics, targets(samples, seed))
     return result
+
+
+SWING_WINDOW = 0.3
+"""rad: the j3 window a swung waypoint asks for (`cartesian_path`'s default jump limit)."""
+
+
+def _sweep_ms(kinematics: ArmKinematics, poses: list[np.ndarray]) -> dict[str, float]:
+    """ms per `ik_solutions` call over the whole j3 range and within `SWING_WINDOW` of the
+    seed's j3 (the home pose's here), on the same poses, taking turns."""
+    seconds = {"full_sweep": 0.0, "j3_window": 0.0}
+    for i, pose in enumerate(poses):
+        for name in list(seconds)[:: 1 if i % 2 == 0 else -1]:
+            within = None if name == "full_sweep" else SWING_WINDOW
+            start = time.perf_counter()
+            kinematics.ik_solutions(pose, kinematics.home, j3_within=within)
+            seconds[name] += time.perf_counter() - start
+    return {name: round(1e3 * total / len(poses), 4) for name, total in seconds.items()}
 
 
 def _summary(times: np.ndarray, solved: np.ndarray) -> dict[str, float | int | None]:
