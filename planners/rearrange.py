@@ -491,12 +491,18 @@ class _Search:
         Every transit into that start has avoidVol, and more, in its way: where even this
         GoTo finds no path (measured on the shelf: the searches that fail there grow no tree
         from that start at all), no transit into it whose avoid holds these objects is
-        planned (two GoTos of up to three searches of 5000 evaluations each)."""
+        planned (two GoTos of up to three searches of 5000 evaluations each). The probe's
+        own searches stop at the settings' `probe_evaluations`: nearly all of them find
+        nothing, and a start reached only by a longer search is given up."""
         avoided = frozenset(avoid)
         if (*key, avoided) not in self._probed:
             self._probed.add((*key, avoided))
             path, reason = self.arm.goto(
-                self.start_arm, q_next, self.ctx.objects_volume(avoid), key[1]
+                self.start_arm,
+                q_next,
+                self.ctx.objects_volume(avoid),
+                key[1],
+                self.ctx.settings.probe_evaluations,
             )
             if path is None and reason.startswith(NO_PATH):
                 self._unreachable.setdefault(key, []).append(avoided)

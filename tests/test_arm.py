@@ -101,22 +101,34 @@ def test_goto_backs_the_hand_out_of_a_pocket_the_planner_alone_cannot_leave() ->
     assert np.max(np.linalg.norm(off_line, axis=1)) < 1e-3
 
 
+@pytest.mark.parametrize("evaluations", [None, 77])
 @pytest.mark.parametrize("backs_out", [True, False])
-def test_goto_backs_out_before_it_gives_up_the_clearance(backs_out: bool) -> None:
+def test_goto_backs_out_before_it_gives_up_the_clearance(
+    backs_out: bool, evaluations: int | None
+) -> None:
     """Where no cleared path joins the ends, GoTo backs the hands out and seeks the cleared path
     between the backed-out configurations, then the plain one there; the plain path between
     the ends themselves only where neither end backs out. Each search is recorded (fakes for
-    the searches and the back-out lines)."""
+    the searches and the back-out lines), and each gets the request's evaluations (None: the
+    settings' own)."""
     arm = make_arm(TABLE)
     start, goal = np.zeros(7), np.full(7, 0.5)
     out_of = {0.0: np.full(7, 0.1), 0.5: np.full(7, 0.4)}
     searches: list[tuple[float, float, str]] = []
+    budgets: list[int | None] = []
 
-    def plan_path(a: np.ndarray, b: np.ndarray, check: object, constraint: object = None):
+    def plan_path(
+        a: np.ndarray,
+        b: np.ndarray,
+        check: object,
+        constraint: object = None,
+        evaluations: int | None = None,
+    ):
         kind = (
             "cleared" if getattr(check, "__qualname__", "").startswith("Arm._cleared") else "plain"
         )
         searches.append((float(a[0]), float(b[0]), kind))
+        budgets.append(evaluations)
         found = len(searches) == 3 if backs_out else len(searches) == 2
         return (np.stack([a, b]) if found else None), ("" if found else "no path found within 9")
 
@@ -133,13 +145,30 @@ def test_goto_backs_out_before_it_gives_up_the_clearance(backs_out: bool) -> Non
 
         clear = free_of_surface_and_self = __call__
 
-    path, reason = arm.goto(start, goal, Volume(), HAND)
+    path, reason = arm.goto(start, goal, Volume(), HAND, evaluations)
     assert path is not None, reason
     if backs_out:
         assert searches == [(0.0, 0.5, "cleared"), (0.1, 0.4, "cleared"), (0.1, 0.4, "plain")]
         np.testing.assert_allclose(path[[0, -1]], [start, goal])
     else:
         assert searches == [(0.0, 0.5, "cleared"), (0.0, 0.5, "plain")]
+    assert budgets == [evaluations] * len(searches)
+
+
+def test_a_search_within_given_evaluations_stops_there() -> None:
+    """`Arm.plan_path` bounds the search by the evaluations given, else the settings' own: a
+    goal GoTo cannot reach ends the search at exactly that many."""
+    arm = make_arm(TABLE, goto_evaluations=400)
+    start = RIGHT_ARM_START
+    goal = 0.5 * (arm.kinematics.lower + arm.kinematics.upper)
+    assert np.max(np.abs(start - goal)) > 0.2
+
+    def free(q: np.ndarray) -> bool:  # the goal sits in an island no path reaches
+        return bool(np.max(np.abs(q - goal)) < 0.05 or np.max(np.abs(q - goal)) > 0.2)
+
+    for evaluations, expected in ((None, 400), (150, 150)):
+        path, reason = arm.plan_path(start, goal, free, evaluations=evaluations)
+        assert path is None and reason == f"no path found within {expected} evaluations"
 
 
 def test_a_backed_out_line_is_free_between_its_waypoints() -> None:

@@ -479,15 +479,22 @@ class _RecordingArm:
         self.reaches_from_start = reaches_from_start
         self.inside = inside
         self.requests: list[tuple[str, Volume]] = []
+        self.evaluations: list[int | None] = []  # each request's, None: the settings' own
 
     def elbow_inside(self, q: np.ndarray) -> bool:
         return self.inside
 
     def goto(
-        self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
+        self,
+        start: np.ndarray,
+        goal: np.ndarray,
+        obstacles: Volume,
+        hand: HandCommand,
+        evaluations: int | None = None,
     ) -> tuple[np.ndarray | None, str]:
         from_start = bool(np.array_equal(start, self.start))
         self.requests.append(("from start" if from_start else "transit", obstacles))
+        self.evaluations.append(evaluations)
         if from_start and self.reaches_from_start:
             return np.stack([start, goal]), ""
         return None, "no path found within 5000 evaluations"
@@ -526,6 +533,9 @@ def test_a_transit_into_a_start_goto_cannot_reach_among_avoid_alone_is_refused(
     else:
         assert kinds == ["transit", "from start"]
         assert arm.requests[1][1] is ctx.objects_volume(avoid)  # avoidVol alone
+    # the probe searches with its own, smaller budget; transits with the settings' GoTo budget
+    assert arm.evaluations[:2] == [None, ctx.settings.probe_evaluations]
+    assert ctx.settings.probe_evaluations < ctx.settings.goto_evaluations
     arm.requests.clear()
     wider = ("b", "can")
     assert search._transit("a", _moved("a"), wider, ctx.objects_volume(wider), r_next) is None

@@ -336,9 +336,15 @@ class Arm:
 
     # -- GoTo ------------------------------------------------------------------------------------
     def goto(
-        self, start: np.ndarray, goal: np.ndarray, obstacles: Volume, hand: HandCommand
+        self,
+        start: np.ndarray,
+        goal: np.ndarray,
+        obstacles: Volume,
+        hand: HandCommand,
+        evaluations: int | None = None,
     ) -> tuple[np.ndarray | None, str]:
-        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself).
+        """GoTo: a joint path from start to goal clear of ``obstacles`` (and surface, itself),
+        each search within ``evaluations`` (default the settings' `goto_evaluations`).
 
         The path keeps `GOTO_CLEARANCE` from the obstacles but within `END_ZONE` of an end
         nearer than that (`_cleared`). Where RRTConnect finds no such path, an end usually
@@ -353,17 +359,18 @@ class Arm:
         failed had a cleared path between backed-out ends (found in 600-5000 evaluations,
         where each failing search spends 5000)."""
         free = self.free_check(obstacles, hand)
-        path, reason = self.plan_path(start, goal, self._cleared(free, (start, goal)))
+        cleared = self._cleared(free, (start, goal))
+        path, reason = self.plan_path(start, goal, cleared, evaluations=evaluations)
         # An end the cleared check refuses is one the plain check refuses (`_cleared`).
         if path is not None or not reason.startswith(NO_PATH):
             return path, reason
         leave, enter = self._backed_out(start, free), self._backed_out(goal, free)
         if leave is None and enter is None:
-            return self.plan_path(start, goal, free)
+            return self.plan_path(start, goal, free, evaluations=evaluations)
         first = start if leave is None else leave[-1]
         last = goal if enter is None else enter[-1]
         for check in (self._cleared(free, (first, last)), free):
-            middle, _ = self.plan_path(first, last, check)
+            middle, _ = self.plan_path(first, last, check, evaluations=evaluations)
             if middle is None:
                 continue
             parts = [middle] if leave is None else [leave[:-1], middle]
@@ -409,8 +416,10 @@ class Arm:
         goal: np.ndarray,
         free: Free,
         constraint: JointConstraint | None = None,
+        evaluations: int | None = None,
     ) -> tuple[np.ndarray | None, str]:
-        """`plan_goto` within this plan's budget and seed: (path or None, reason)."""
+        """`plan_goto` within this plan's budget and seed and ``evaluations`` (default the
+        settings' `goto_evaluations`): (path or None, reason)."""
         self.budget.check()
         with self.stats.timed("goto"):
             result = plan_goto(
@@ -423,7 +432,7 @@ class Arm:
                 seed=self.settings.seed,
                 resolution=ARM_CHECK_STEP,
                 constraint=constraint,
-                max_evaluations=self.settings.goto_evaluations,
+                max_evaluations=evaluations or self.settings.goto_evaluations,
             )
         return result.path, result.reason
 

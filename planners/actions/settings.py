@@ -19,6 +19,11 @@ class PlannerSettings:
     # Evaluations per GoTo request (collision checks; with a constraint, also its Jacobians):
     # about 1 s here, and a count, not seconds, so that plans do not depend on the machine's load.
     goto_evaluations: int = 5000
+    # Evaluations per search of a reachability probe (`rearrange._Search._reachable`: may GoTo
+    # reach a start at all?), fewer than a GoTo's: on shelf high scenes 0-49 (pushing, sigma2)
+    # 723 of 759 such searches found no path, each spending its 5000 (142 s of the 682 s
+    # planned), and 30 of the 36 that found one needed fewer than 1500.
+    probe_evaluations: int = 1500
     heading_step_deg: float = 15.0
     # Push and grasp directions within this of the shoulder-object line: 180 is the paper's
     # v in [0, 2 pi) (§2.2.6); the reachability map prunes the ones the arm cannot reach.
@@ -42,7 +47,13 @@ class PlannerSettings:
     heading_origin: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("goto_evaluations", "heading_step_deg", "sweep_max", "sweep_step_deg"):
+        for name in (
+            "goto_evaluations",
+            "probe_evaluations",
+            "heading_step_deg",
+            "sweep_max",
+            "sweep_step_deg",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"PlannerSettings.{name}: {value!r}; must be > 0")
