@@ -41,6 +41,9 @@ in the check): with these two settings 286 of the 288 poses that have a free sol
 (the two misses had 1 and 2 free solutions among 205 and 79, narrower than the j3 step), and a
 refused pose costs 14 checks on average (64 at most); spacing 0 (the 64 nearest solutions)
 misses 78 of the 288, spacing 0.4 misses 5."""
+MAX_JUMP = 0.3
+"""rad any joint may move between consecutive waypoints of a `ArmKinematics.cartesian_path`
+(its default): a larger step is a jump to another branch, not a continuous line."""
 POSE_TOLERANCE = 1e-6
 """m and rad: an analytic solution whose FK misses the target by more is dropped (rounding at a
 double root, e.g. the elbow stretched straight, where the closed forms lose half their
@@ -379,7 +382,7 @@ class ArmKinematics:
         target_tcp_pose: np.ndarray,
         n_waypoints: int,
         accept: Accept | None = None,
-        max_jump: float = 0.3,
+        max_jump: float = MAX_JUMP,
         pos_tol: float = 1e-4,
         rot_tol: float = 1e-3,
         connect: Callable[[np.ndarray, np.ndarray], bool] | None = None,

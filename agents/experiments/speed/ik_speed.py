@@ -22,7 +22,13 @@ from tqdm import tqdm
 
 from clutter_gym.model import herb as hm
 from clutter_gym.model.collision import make_checker
-from clutter_gym.model.kinematics import CHECK_SPACING, J3_SAMPLES, MAX_CHECKS, ArmKinematics
+from clutter_gym.model.kinematics import (
+    CHECK_SPACING,
+    J3_SAMPLES,
+    MAX_CHECKS,
+    MAX_JUMP,
+    ArmKinematics,
+)
 from clutter_gym.model.reachability import HEADINGS_DEG, HEIGHTS, PROBE_HAND, hand_pose
 from clutter_gym.model.world import TABLE
 from clutter_gym.sim.bullet import native_stdout_muted
@@ -130,17 +136,14 @@ def bench_ik(samples: int = 500, seed: int = 0) -> dict[str, Any]:
     return result
 
 
-SWING_WINDOW = 0.3
-"""rad: the j3 window a swung waypoint asks for (`cartesian_path`'s default jump limit)."""
-
-
 def _sweep_ms(kinematics: ArmKinematics, poses: list[np.ndarray]) -> dict[str, float]:
-    """ms per `ik_solutions` call over the whole j3 range and within `SWING_WINDOW` of the
-    seed's j3 (the home pose's here), on the same poses, taking turns."""
+    """ms per `ik_solutions` call over the whole j3 range and within `MAX_JUMP` (a swung
+    waypoint's window) of the seed's j3 (the home pose's here), on the same poses, taking
+    turns."""
     seconds = {"full_sweep": 0.0, "j3_window": 0.0}
     for i, pose in enumerate(poses):
         for name in list(seconds)[:: 1 if i % 2 == 0 else -1]:
-            within = None if name == "full_sweep" else SWING_WINDOW
+            within = None if name == "full_sweep" else MAX_JUMP
             start = time.perf_counter()
             kinematics.ik_solutions(pose, kinematics.home, j3_within=within)
             seconds[name] += time.perf_counter() - start
