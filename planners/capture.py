@@ -141,7 +141,7 @@ class CaptureRegion:
         capped at ``d_max``."""
         return BOX_PUSH_MARGIN if self.footprint.shape == "box" else PUSH_MARGIN
 
-    @property
+    @cached_property
     def lateral_reach(self) -> float:
         """How far either side of the hand's axis (m) a pose can be and still be captured by
         some push (at some orientation): the extreme lateral offsets of the search."""

@@ -51,9 +51,17 @@ PROBE_HAND = HandCommand(0.0, 0.3)
 def approach_rotation(direction: np.ndarray) -> np.ndarray:
     """Hand orientation with the approach axis (hand z) horizontal along `direction` and the
     finger plane horizontal, F3 on the robot's left of the object, as in HERB's home pose."""
-    z = np.array([direction[0], direction[1], 0.0]) / np.hypot(direction[0], direction[1])
-    y = np.array([z[1], -z[0], 0.0])  # -(world z x approach): the home pose's roll
-    return np.column_stack([np.cross(y, z), y, z])
+    norm = math.hypot(direction[0], direction[1])
+    zx, zy = direction[0] / norm, direction[1] / norm
+    # x = y cross z with y = (zy, -zx, 0) (-(world z x approach): the home pose's roll), z =
+    # (zx, zy, 0), written out: a planner asks for thousands of hand poses.
+    return np.array(
+        [
+            [(-zx) * 0.0 - 0.0 * zy, zy, zx],
+            [0.0 * zx - zy * 0.0, -zx, zy],
+            [zy * zy - (-zx) * zx, 0.0, 0.0],
+        ]
+    )
 
 
 def tcp_pose(tcp: np.ndarray, direction: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -123,6 +124,11 @@ def to_frames(origins: np.ndarray, angles: np.ndarray, poses: np.ndarray) -> np.
     return np.stack([(d * x_axis).sum(-1), (d * y_axis).sum(-1), theta], axis=-1)
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
 @dataclass(frozen=True)
 class Frame2D:
     """A planar frame at ``origin`` whose x axis points at ``angle`` (world yaw); its y axis is
@@ -132,14 +138,16 @@ class Frame2D:
     angle: float
     handedness: int = 1
 
-    @property
+    @cached_property
     def x_axis(self) -> np.ndarray:
-        return np.array([math.cos(self.angle), math.sin(self.angle)])
+        """The unit x axis (read-only: computed once per frame, which the sweep asks often)."""
+        return _read_only(np.array([math.cos(self.angle), math.sin(self.angle)]))
 
-    @property
+    @cached_property
     def y_axis(self) -> np.ndarray:
+        """The unit y axis (read-only, as `x_axis`)."""
         a = self.angle + self.handedness * math.pi / 2
-        return np.array([math.cos(a), math.sin(a)])
+        return _read_only(np.array([math.cos(a), math.sin(a)]))
 
     def to_frame(self, poses: np.ndarray) -> np.ndarray:
         """World poses (N, 3) in this frame."""

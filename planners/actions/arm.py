@@ -153,8 +153,9 @@ class Arm:
         key = (id(obstacles), hand, exact)
         kept = self._checks.pop(key, None)  # re-inserted last: the least recently used go
         if kept is None:
-            world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
-            check = ArmCheck(CollisionChecker(world, self.robot), hand, self.stats, self.grown)
+            with self.stats.timed("collision"):
+                world = CollisionWorld.around(self.surface, obstacles, hulled=not exact)
+                check = ArmCheck(CollisionChecker(world, self.robot), hand, self.stats, self.grown)
             kept = (obstacles, check)
             if len(self._checks) >= CHECKS_KEPT:
                 del self._checks[next(iter(self._checks))]
@@ -248,11 +249,11 @@ class Arm:
         support and the lowest may be out of reach."""
         if self.reach is None:
             return list(HEIGHTS)
-        start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
-        length = float(np.linalg.norm(end - start))
-        steps = max(1, math.ceil(length / self.reach.grid.resolution))
-        points = start + np.linspace(0.0, 1.0, steps + 1)[:, None] * (end - start)
         with self.stats.timed("reach"):
+            start, end = np.asarray(start_xy, dtype=float), np.asarray(end_xy, dtype=float)
+            length = float(np.linalg.norm(end - start))
+            steps = max(1, math.ceil(length / self.reach.grid.resolution))
+            points = start + np.linspace(0.0, 1.0, steps + 1)[:, None] * (end - start)
             return [h for h in HEIGHTS if not self.reach.rules_out_any(points, heading, h)]
 
     def _unreachable(self, target: np.ndarray) -> bool:

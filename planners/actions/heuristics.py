@@ -16,14 +16,14 @@ def corridor_hits(
 ) -> set[str]:
     """Objects other than ``name`` whose U overlaps a box swept from start to end (2D) at the
     hand's height: the paper's count of objects hit when the hand turns around the object."""
-    delta = end - start
-    length = float(np.linalg.norm(delta))
-    if length < 1e-9:
-        return set()
-    yaw = math.atan2(delta[1], delta[0])
-    centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
-    corridor = Volume.of_box("corridor", centre, (length, width, 0.12), yaw)
     with ctx.stats.timed("heuristics"):
+        delta = end - start
+        length = float(np.linalg.norm(delta))
+        if length < 1e-9:
+            return set()
+        yaw = math.atan2(delta[1], delta[0])
+        centre = np.r_[(start + end) / 2, ctx.surface.top_z + 0.10]
+        corridor = Volume.of_box("corridor", centre, (length, width, 0.12), yaw)
         return {
             other
             for other in ctx.beliefs

@@ -244,16 +244,17 @@ def _over_offsets(
     release, place) may fail there and not at the next offset. The capture and the hand's
     overlap where it stops, which rule out most offsets, are decided for all offsets at once
     before any offset pays for the mass, and the mass before any offset pays for IK."""
-    belief = ctx.beliefs[name]
-    region = ctx.push_region(belief.spec.footprint, aperture)
-    offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
     pushes = ctx.push_plans.get((name, heading, aperture))
     if pushes is None:  # the samples and the region alone decide them: once per plan
         with ctx.stats.timed("capture"):
+            belief = ctx.beliefs[name]
+            region = ctx.push_region(belief.spec.footprint, aperture)
+            offsets = lateral_offsets(belief.samples, heading, region.lateral_reach, OFFSET_STEP)
             pushes = _plan_pushes(ctx, name, heading, aperture, offsets) if len(offsets) else []
         ctx.push_plans[(name, heading, aperture)] = pushes
-    if len(offsets):
-        early, clear = _before_ik(ctx, name, avoid, action, heading, aperture, pushes)
+    if pushes:  # one per lateral offset; none where no offset can capture every sample
+        with ctx.stats.timed("clearance"):  # the planar test and what earlier ones found
+            early, clear = _before_ik(ctx, name, avoid, action, heading, aperture, pushes)
     else:
         early, clear = [Failure(name, action, MISSES_SAMPLES)], []
     masses = _belief_masses(ctx, name, clear)

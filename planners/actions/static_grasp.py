@@ -160,8 +160,8 @@ def _grasping_draws(
     """Hand poses (K, 3) drawn from the TSR that grasp every sample as it stands, in §2.2.6's
     order of the push directions (objects hit on the way in first), then most centred."""
     samples = ctx.beliefs[name].samples
-    draws = tsr.sample(ctx.rng, TSR_DRAWS)
     with ctx.stats.timed("capture"):
+        draws = tsr.sample(ctx.rng, TSR_DRAWS)
         draws = draws[grasps_every_sample(region, tsr, draws, samples)]
     if not len(draws):
         return draws

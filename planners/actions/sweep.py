@@ -116,7 +116,8 @@ def _sweep_at(
     handedness: int,
 ) -> Iterator[Outcome]:
     """At most one sweep in this direction (and the failures on the way)."""
-    plan = _plan_sweep(ctx, name, angle, handedness)
+    with ctx.stats.timed("capture"):  # the samples in the sweep's frame
+        plan = _plan_sweep(ctx, name, angle, handedness)
     guess = _first_guess(ctx, name, goal, plan)
     if guess is None:
         guess = _pilot_guess(ctx, name, goal, plan)
@@ -224,8 +225,9 @@ def _pilot_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) 
     it is in G: the guess when no rigid translation reaches G, because the object must turn
     on the way (a long object pushed at its end swings round against the hand, and only then
     fits between the NGR and the table's edge). The pilot is kept for the full simulation."""
-    frame, in_frame = _frame_at(ctx, name, plan, SWEEP_PLACEMENTS[0])
-    limit = min(ctx.settings.sweep_max, plan.region.holds_until(in_frame[:1]))
+    with ctx.stats.timed("capture"):
+        frame, in_frame = _frame_at(ctx, name, plan, SWEEP_PLACEMENTS[0])
+        limit = min(ctx.settings.sweep_max, plan.region.holds_until(in_frame[:1]))
     with ctx.stats.timed("nu"):
         pilot = _sweep_until(ctx, name, goal, plan.region, frame, in_frame[:1], limit, PILOT_STEP)
     return None if pilot is None else pilot[0]
@@ -245,8 +247,8 @@ def _placement(
     capture region holds every sample and the arm reaches the start (clear of the object too:
     `_clearances`) and the guessed end; the sweep at the lowest height the arm holds the hand
     there (`Arm.push_height`)."""
-    frame, in_frame = _frame_at(ctx, name, plan, fraction)
     with ctx.stats.timed("capture"):
+        frame, in_frame = _frame_at(ctx, name, plan, fraction)
         captured = bool(plan.region.query(in_frame, float(guess))[0].all())
     if not captured:
         return Failure(name, ACTION, "the sweep capture region misses some uncertainty samples")
