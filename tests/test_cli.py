@@ -110,6 +110,9 @@ def test_bench_plan_compares_the_ik_solvers_on_the_same_detections() -> None:
         assert summary["planned"] == 1 and summary["objects_moved"] == [[]]
         assert 0 < summary["median_planning_time_s"] < 60
         assert 0 < summary["ik_share"] < 1 and 0 < summary["accounted_share"] <= 1
+        shares = summary["shares"]
+        assert shares["ik"] == pytest.approx(summary["ik_share"], abs=0.002)
+        assert sum(shares.values()) == pytest.approx(summary["accounted_share"], abs=0.02)
 
 
 def test_console_script_is_installed() -> None:

@@ -5,9 +5,9 @@ detection, the uncertainty samples and OMPL's random numbers), once with the ana
 with a reference solver (random-restart Levenberg-Marquardt,
 `agents.experiments.speed.ik_speed`), the two taking turns on the same detection so that the
 machine's load hits both alike. The report gives, per solver, the plans found, every planning time
-and its median, the share of planning time in IK, and how much of the planning time the planner's
-own statistics account for (`PlanStats`: every costly step has a part). Execution is measured by
-``clutter-gym plan --execute``, not here.
+and its median, the share of planning time in IK, how much of the planning time the planner's
+own statistics account for (`PlanStats`: every costly step has a part) and each part's share.
+Execution is measured by ``clutter-gym plan --execute``, not here.
 """
 
 from __future__ import annotations
@@ -63,6 +63,7 @@ def _run(scene_name: str, noise: str, seed: int, ik: IKSolver | None) -> dict[st
         "planning_time_s": round(plan.planning_time, 4),
         "ik_s": round(seconds.get("ik", 0.0), 4),
         "accounted_s": round(sum(seconds.values()), 4),
+        "seconds": dict(seconds),
         "objects_moved": plan.objects_moved,
     }
 
@@ -76,8 +77,20 @@ def _summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "median_planning_time_s": round(statistics.median(times), 3),
         "ik_share": round(sum(r["ik_s"] for r in runs) / total, 3) if total else None,
         "accounted_share": round(sum(r["accounted_s"] for r in runs) / total, 3) if total else None,
+        "shares": _shares(runs, total),
         "objects_moved": [r["objects_moved"] for r in runs if r["success"]],
     }
+
+
+def _shares(runs: list[dict[str, Any]], total: float) -> dict[str, float]:
+    """Each part of the planner's statistics (`PlanStats.seconds`) as a share of the planning
+    time, largest first: where a regression or a speed-up went."""
+    parts: dict[str, float] = {}
+    for r in runs:
+        for part, seconds in r["seconds"].items():
+            parts[part] = parts.get(part, 0.0) + seconds
+    ranked = sorted(parts.items(), key=lambda item: -item[1])
+    return {part: round(seconds / total, 3) for part, seconds in ranked} if total else {}
 
 
 def bench_plan(
