@@ -54,7 +54,8 @@ def approach_rotation(direction: np.ndarray) -> np.ndarray:
     norm = math.hypot(direction[0], direction[1])
     zx, zy = direction[0] / norm, direction[1] / norm
     # x = y cross z with y = (zy, -zx, 0) (-(world z x approach): the home pose's roll), z =
-    # (zx, zy, 0), written out: a planner asks for thousands of hand poses.
+    # (zx, zy, 0), written out term by term as np.cross computes it (so every entry, signed
+    # zeros too, is the same): a planner asks for thousands of hand poses.
     return np.array(
         [
             [(-zx) * 0.0 - 0.0 * zy, zy, zx],

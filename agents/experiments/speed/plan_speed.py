@@ -61,9 +61,7 @@ def _run(scene_name: str, noise: str, seed: int, ik: IKSolver | None) -> dict[st
     return {
         "success": plan.success,
         "planning_time_s": round(plan.planning_time, 4),
-        "ik_s": round(seconds.get("ik", 0.0), 4),
-        "accounted_s": round(sum(seconds.values()), 4),
-        "seconds": dict(seconds),
+        "seconds": {part: round(t, 4) for part, t in seconds.items()},
         "objects_moved": plan.objects_moved,
     }
 
@@ -71,26 +69,27 @@ def _run(scene_name: str, noise: str, seed: int, ik: IKSolver | None) -> dict[st
 def _summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
     times = [r["planning_time_s"] for r in runs]
     total = sum(times)
+    parts = _part_seconds(runs)
     return {
         "planned": sum(r["success"] for r in runs),
         "planning_time_s": times,
         "median_planning_time_s": round(statistics.median(times), 3),
-        "ik_share": round(sum(r["ik_s"] for r in runs) / total, 3) if total else None,
-        "accounted_share": round(sum(r["accounted_s"] for r in runs) / total, 3) if total else None,
-        "shares": _shares(runs, total),
+        "ik_share": round(parts.get("ik", 0.0) / total, 3) if total else None,
+        "accounted_share": round(sum(parts.values()) / total, 3) if total else None,
+        # Each part's share, largest first: where a regression or a speed-up went.
+        "shares": {part: round(t / total, 3) for part, t in parts.items()} if total else {},
         "objects_moved": [r["objects_moved"] for r in runs if r["success"]],
     }
 
 
-def _shares(runs: list[dict[str, Any]], total: float) -> dict[str, float]:
-    """Each part of the planner's statistics (`PlanStats.seconds`) as a share of the planning
-    time, largest first: where a regression or a speed-up went."""
+def _part_seconds(runs: list[dict[str, Any]]) -> dict[str, float]:
+    """The seconds of each part of the planner's statistics (`PlanStats.seconds`) over the
+    runs, largest first."""
     parts: dict[str, float] = {}
     for r in runs:
         for part, seconds in r["seconds"].items():
             parts[part] = parts.get(part, 0.0) + seconds
-    ranked = sorted(parts.items(), key=lambda item: -item[1])
-    return {part: round(seconds / total, 3) for part, seconds in ranked} if total else {}
+    return dict(sorted(parts.items(), key=lambda item: -item[1]))
 
 
 def bench_plan(
