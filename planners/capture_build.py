@@ -140,7 +140,7 @@ def build_push_grasp(
     # fingertips while carried by the hand; settled against the hand from then on. In a V
     # preshape a box is captured once it has come to the palm (`palm_seat`), wherever the
     # fingertips stand: end-on its centre is then up to 3 cm ahead of them, and closing holds
-    # it (`planners.actions.hand_in.TURN_SEAT`).
+    # it (`planners.hand2d.TURN_SEAT`).
     line = hand.grasp_line - grasp_depth(footprint, hand.aperture)
     seat = palm_seat(footprint, hand.aperture)
     hx, hy = footprint.half_extents

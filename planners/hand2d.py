@@ -257,7 +257,7 @@ to 2 cm ahead of the palm; pushed on to the palm it held."""
 def palm_seat(footprint: Footprint, aperture: float) -> float | None:
     """m a box must come to the palm for a V preshape to count it captured (`PALM_SEAT`),
     wherever its centre stands against the fingertip line (the V's fingers close on a box seated
-    at the palm at any orientation, end-on too: `planners.actions.hand_in.TURN_SEAT`), or None
+    at the palm at any orientation, end-on too: `planners.hand2d.TURN_SEAT`), or None
     where the fingertip line alone decides: cylinders, and every preshape up to the straight
     one, whose fingers close around a box's sides from behind its centre."""
     v_shaped = aperture > STRAIGHT_APERTURE + 1e-9
@@ -293,3 +293,42 @@ def sweep_profile(aperture: float = STRAIGHT_APERTURE) -> SweepProfile:
         tuple(Circle(turn(c.center), c.radius) for c in circles),
     )
     return SweepProfile(aperture, q, pusher, (WRIST_END, finger_pose(q).tip[1]))
+
+
+TURN_BAND = math.radians(50.0)
+"""A box turned at most this far from the hand's approach axis (its faces repeat every half
+turn) is turned toward the axis by the closing fingers, never past
+`planners.actions.hand_in.TURN_REST`."""
+TURN_SEAT = ((0.023, 0.04), (0.043, 0.02))
+"""(m ahead of the palm, m either side of the approach axis): where a box's nearest point and
+its centre must stand for `TURN_BAND` to hold, the envelope of the measured poses."""
+
+
+def outline_reach(footprint: Footprint, theta: np.ndarray) -> np.ndarray:
+    """How far the outline reaches behind its centre along a frame's x, per orientation in
+    that frame."""
+    if footprint.shape == "circle":
+        return np.full(np.shape(theta), footprint.radius)
+    hx, hy = footprint.half_extents
+    return np.abs(hx * np.cos(theta)) + np.abs(hy * np.sin(theta))
+
+
+def turned_to_axis(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
+    """Which box poses (M, 3; hand_base's frame) the closing fingers turn toward the approach
+    axis and hold: within `TURN_BAND` of the axis and in `TURN_SEAT`
+    (`planners.actions.hand_in.closing_poses`)."""
+    return box_band(footprint, np.asarray(in_hand, dtype=float).reshape(-1, 3))[2]
+
+
+def box_band(
+    footprint: Footprint, in_hand: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each box pose's turn off the approach axis (in [-pi/2, pi/2)), how far its nearest
+    point stands ahead of the palm, and whether it is in the measured band (`turned_to_axis`)."""
+    off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2
+    ahead = np.maximum(in_hand[:, 0] - outline_reach(footprint, off_axis) - PALM_FRONT, 0.0)
+    seated = np.zeros(len(in_hand), dtype=bool)
+    for most_ahead, most_aside in TURN_SEAT:
+        # 1e-9: the measured poses lie on the envelope's edge, give or take rounding.
+        seated |= (ahead <= most_ahead + 1e-9) & (np.abs(in_hand[:, 1]) <= most_aside + 1e-9)
+    return off_axis, ahead, seated & (np.abs(off_axis) <= TURN_BAND)

@@ -12,6 +12,7 @@ import numpy as np
 
 from clutter_gym.model import herb as hm
 from clutter_gym.model.objects import Footprint
+from planners.hand2d import outline_reach
 
 LIFT = 0.15
 """m a retrieved object is lifted, more than the task's 0.10 m."""
@@ -39,15 +40,6 @@ def near_edge(footprint: Footprint, poses: np.ndarray) -> float:
     """Smallest x reached by the object's outline over poses (N, 3) in a frame: where a hand
     moving along +x would first meet it."""
     return float((poses[:, 0] - outline_reach(footprint, poses[:, 2])).min())
-
-
-def outline_reach(footprint: Footprint, theta: np.ndarray) -> np.ndarray:
-    """How far the outline reaches behind its centre along a frame's x, per orientation in
-    that frame."""
-    if footprint.shape == "circle":
-        return np.full(np.shape(theta), footprint.radius)
-    hx, hy = footprint.half_extents
-    return np.abs(hx * np.cos(theta)) + np.abs(hy * np.sin(theta))
 
 
 def translated(poses: np.ndarray, shift: np.ndarray) -> np.ndarray:

@@ -25,24 +25,24 @@ from planners.actions.grasp_geometry import (
     GRASP_CLOSURE,
     LIFT,
     OPEN_FLAT,
-    outline_reach,
     rise_height,
 )
 from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
-from planners.hand2d import PALM_FRONT, PushGraspProfile, closure_for_aperture
+from planners.hand2d import (
+    PALM_FRONT,
+    TURN_BAND,
+    TURN_SEAT,
+    PushGraspProfile,
+    box_band,
+    closure_for_aperture,
+)
 
 NU_SPACING = 0.02  # m of push between stored stages of nu_o
 OUT_OF_REACH = "the reachability map rules out the hand on its way in"
 NU_INTO_AVOID = "the object's uncertainty sweeps into avoidVol"
 CLOSING_STAGES = 10
 """Orientations at which `closing` puts a box while the fingers close on it."""
-TURN_BAND = math.radians(50.0)
-"""A box turned at most this far from the hand's approach axis (its faces repeat every half
-turn) is turned toward the axis by the closing fingers, never past `TURN_REST`."""
-TURN_SEAT = ((0.023, 0.04), (0.043, 0.02))
-"""(m ahead of the palm, m either side of the approach axis): where a box's nearest point and
-its centre must stand for `TURN_BAND` to hold, the envelope of the measured poses."""
 TURN_REST = (math.radians(-5.0), math.radians(10.0), math.radians(30.0))
 """Where the box comes to rest relative to the approach axis, with a margin: from the first
 angle to the second when it stands at the palm, to the third at the far end of `TURN_SEAT`
@@ -288,14 +288,8 @@ def closing_poses(
     fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     if footprint.shape != "box":
         return _cylinder_closing(footprint, in_hand, profile, fractions)
-    off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2  # in [-pi/2, pi/2)
-    ahead = np.maximum(in_hand[:, 0] - outline_reach(footprint, off_axis) - PALM_FRONT, 0.0)
-    seated = np.zeros(len(in_hand), dtype=bool)
-    for most_ahead, most_aside in TURN_SEAT:
-        # 1e-9: the measured poses lie on the envelope's edge, give or take rounding.
-        seated |= (ahead <= most_ahead + 1e-9) & (np.abs(in_hand[:, 1]) <= most_aside + 1e-9)
+    off_axis, ahead, banded = box_band(footprint, in_hand)
     near_axis = np.abs(off_axis) <= TURN_BAND
-    banded = near_axis & seated
     rest_low, seated_high, far_high = TURN_REST
     rest_high = np.interp(ahead, (0.0, TURN_SEAT[-1][0]), (seated_high, far_high))
     low = np.where(banded, np.minimum(off_axis, rest_low), off_axis)

@@ -25,14 +25,14 @@ from planners.actions.arm import Arm
 from planners.actions.clearance import stops_overlapping
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
-from planners.actions.grasp_geometry import START_CLEARANCE, outline_reach
+from planners.actions.grasp_geometry import START_CLEARANCE
 from planners.actions.hand_in import NU_SPACING, HandIn, hand_in, pick_up_or_release
 from planners.actions.heuristics import push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.actions.static_grasp import static_grasp
 from planners.capture import CaptureRegion, extreme_parameters, push_grasp_apertures
-from planners.hand2d import default_aperture, push_grasp_profile
+from planners.hand2d import default_aperture, outline_reach, push_grasp_profile
 
 HEADING_REFINE = 3
 """The push-grasp's headings are searched again at this fraction of the settings' step."""

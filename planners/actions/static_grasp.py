@@ -11,16 +11,28 @@ from collections.abc import Iterator
 import numpy as np
 
 from clutter_gym.model.collision import Volume
+from clutter_gym.model.objects import Footprint
 from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
-from planners.actions.hand_in import OUT_OF_REACH, HandIn, hand_in, pick_up_or_release
+from planners.actions.hand_in import (
+    OUT_OF_REACH,
+    HandIn,
+    hand_in,
+    pick_up_or_release,
+)
 from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
 from planners.capture import CaptureRegion, push_grasp_apertures
-from planners.hand2d import GRASP_DEPTH, PushGraspProfile, push_grasp_profile
+from planners.hand2d import (
+    GRASP_DEPTH,
+    PALM_FRONT,
+    TURN_SEAT,
+    PushGraspProfile,
+    push_grasp_profile,
+)
 from planners.tsr import GraspTSR, grasps_every_sample
 
 TSR_DRAWS = 300  # hand poses drawn from a TSR per aperture (seeded)
@@ -74,7 +86,7 @@ def _at_aperture(
         (float(centre[0]), float(centre[1])),
         (base - limit, base + limit),
         (-profile.half_gap, profile.half_gap),
-        (profile.grasp_line - TSR_DEPTH, profile.grasp_line - GRASP_DEPTH),
+        (profile.grasp_line - TSR_DEPTH, _deepest(belief.spec.footprint, profile)),
     )
     draws = _grasping_draws(ctx, arm, name, tsr, region, profile, avoid)
     if not len(draws):
@@ -113,6 +125,16 @@ def _at_aperture(
         yield result
         if isinstance(result, ActionResult):
             found.append(float(heading))
+
+
+def _deepest(footprint: Footprint, profile: PushGraspProfile) -> float:
+    """The TSR's bound on the object centre's depth (hand x): `GRASP_DEPTH` behind the
+    fingertip line, or, for a box, as far ahead as the closing fingers still turn it to the
+    axis and hold it (`planners.tsr.grasped_still`), past the line for a box end-on."""
+    deepest = profile.grasp_line - GRASP_DEPTH
+    if footprint.shape == "box":
+        deepest = max(deepest, PALM_FRONT + TURN_SEAT[-1][0] + footprint.bounding_radius)
+    return deepest
 
 
 def _pick_up(
