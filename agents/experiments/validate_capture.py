@@ -18,8 +18,9 @@ Static grasps (``--action static-grasp``): the push-grasp set-up with no push: t
 to the aperture closes where the object stands and lifts, on a grid from the planner's TSR depth
 behind the fingertip line to just beyond it. The planner closes without pushing only where
 `planners.tsr.grasped_still` says (the region needs no push and the object's centre is
-`planners.hand2d.GRASP_DEPTH` behind the line); poses the region holds without a push but
-nearer the line are counted apart as ``failures_at_edge``.
+`planners.hand2d.GRASP_DEPTH` behind the line, or a box stands where the closing fingers turn it
+to the approach axis, `planners.hand2d.turned_to_axis`); poses the region holds without a push
+but nearer the line are counted apart as ``failures_at_edge``.
 
 Sweeps (``--action sweep``): the planner's sweep (`planners.actions.sweep`): the hand horizontal at
 `PUSH_HEIGHT`, the fingers at the sweep region's aperture, straight sideways for `DISTANCE`, then
