@@ -317,18 +317,20 @@ def turned_to_axis(footprint: Footprint, in_hand: np.ndarray) -> np.ndarray:
     """Which box poses (M, 3; hand_base's frame) the closing fingers turn toward the approach
     axis and hold: within `TURN_BAND` of the axis and in `TURN_SEAT`
     (`planners.actions.hand_in.closing_poses`)."""
-    return box_band(footprint, np.asarray(in_hand, dtype=float).reshape(-1, 3))[2]
+    _, _, near_axis, seated = box_band(footprint, np.asarray(in_hand, dtype=float).reshape(-1, 3))
+    return near_axis & seated
 
 
 def box_band(
     footprint: Footprint, in_hand: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each box pose's turn off the approach axis (in [-pi/2, pi/2)), how far its nearest
-    point stands ahead of the palm, and whether it is in the measured band (`turned_to_axis`)."""
+    point stands ahead of the palm, whether it is within `TURN_BAND` of the axis and whether
+    it is in `TURN_SEAT` (both: `turned_to_axis`)."""
     off_axis = np.mod(in_hand[:, 2] + np.pi / 2, np.pi) - np.pi / 2
     ahead = np.maximum(in_hand[:, 0] - outline_reach(footprint, off_axis) - PALM_FRONT, 0.0)
     seated = np.zeros(len(in_hand), dtype=bool)
     for most_ahead, most_aside in TURN_SEAT:
         # 1e-9: the measured poses lie on the envelope's edge, give or take rounding.
         seated |= (ahead <= most_ahead + 1e-9) & (np.abs(in_hand[:, 1]) <= most_aside + 1e-9)
-    return off_axis, ahead, seated & (np.abs(off_axis) <= TURN_BAND)
+    return off_axis, ahead, np.abs(off_axis) <= TURN_BAND, seated

@@ -31,7 +31,6 @@ from planners.actions.results import ActionResult, Failure
 from planners.goto import upright_hand
 from planners.hand2d import (
     PALM_FRONT,
-    TURN_BAND,
     TURN_SEAT,
     PushGraspProfile,
     box_band,
@@ -288,8 +287,8 @@ def closing_poses(
     fractions = np.linspace(0.0, 1.0, CLOSING_STAGES)[:, None]
     if footprint.shape != "box":
         return _cylinder_closing(footprint, in_hand, profile, fractions)
-    off_axis, ahead, banded = box_band(footprint, in_hand)
-    near_axis = np.abs(off_axis) <= TURN_BAND
+    off_axis, ahead, near_axis, seated = box_band(footprint, in_hand)
+    banded = near_axis & seated
     rest_low, seated_high, far_high = TURN_REST
     rest_high = np.interp(ahead, (0.0, TURN_SEAT[-1][0]), (seated_high, far_high))
     low = np.where(banded, np.minimum(off_axis, rest_low), off_axis)

@@ -16,12 +16,7 @@ from planners.actions.arm import Arm
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE, near_edge
-from planners.actions.hand_in import (
-    OUT_OF_REACH,
-    HandIn,
-    hand_in,
-    pick_up_or_release,
-)
+from planners.actions.hand_in import OUT_OF_REACH, HandIn, hand_in, pick_up_or_release
 from planners.actions.heuristics import base_heading, push_headings
 from planners.actions.pick_and_place import place
 from planners.actions.results import ActionResult, Failure, Outcome, unfit
