@@ -205,7 +205,7 @@ def overlaps(footprint: Footprint, pusher: Pusher, poses: np.ndarray, depth: flo
     (`push_kernels.overlaps`: only the half-plane tests, and only against the pusher's shapes
     within reach). The planner's 2D hand test asks this thousands of times per plan in clutter."""
     return push_kernels.overlaps(
-        *_shape_args(footprint),
+        *shape_args(footprint),
         footprint.bounding_radius,
         np.ascontiguousarray(poses, dtype=float).reshape(-1, 3),
         depth,
@@ -232,12 +232,12 @@ def contacts(
     )
     for i in range(len(poses)):
         push_kernels.candidates(
-            *_shape_args(footprint), poses[i], *packed, gaps[i], points[i], normals[i]
+            *shape_args(footprint), poses[i], *packed, gaps[i], points[i], normals[i]
         )
     return gaps, points, normals
 
 
-def _shape_args(footprint: Footprint) -> tuple[bool, float, float, float]:
+def shape_args(footprint: Footprint) -> tuple[bool, float, float, float]:
     """(is a box, radius, half extents) of a footprint, as the kernels take them."""
     box = footprint.shape == "box"
     hx, hy = footprint.half_extents if box else (0.0, 0.0)
@@ -376,7 +376,7 @@ def _contact_twist(
     packed = pusher.packed
     size = push_kernels.candidate_count(footprint.shape == "box", packed[1], len(packed[3]))
     return push_kernels.contact_twists(
-        *_shape_args(footprint),
+        *shape_args(footprint),
         footprint.bounding_radius,
         np.ascontiguousarray(poses, dtype=float),
         np.ascontiguousarray(mu, dtype=float),

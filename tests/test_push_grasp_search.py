@@ -433,9 +433,10 @@ def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided
 
 
 def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_overlaps() -> None:
-    """`clearance._blockers` (one sample first, then the rest where the hand is still free)
-    against the plain definition: per hand pose, the first object by name with any sample
-    pose that the hand's cross-section overlaps."""
+    """`clearance._blockers` (one compiled pass per object over the hand poses still free,
+    skipping samples whose bounding circle misses the hand's box) against the plain
+    definition: per hand pose, the first object by name with any sample pose that the hand's
+    cross-section overlaps."""
     from planners.actions.clearance import OVERLAP, _blockers
     from planners.hand2d import push_grasp_profile
     from planners.push_simulation import overlaps
@@ -575,7 +576,7 @@ def test_a_pushs_pilots_are_its_nu_os_rows_of_the_detection_and_the_extreme_samp
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
     asked: list[tuple[Any, Any, Any]] = []
 
-    def captured(*args: Any) -> Failure:
+    def captured(*args: Any, **_: Any) -> Failure:
         asked.append((args[5][0], args[-2], args[-1]))
         return Failure("obj", "push-grasp", "stopped by the test")
 
@@ -815,7 +816,7 @@ def test_pushes_holding_the_preferred_mass_are_tried_first_at_every_heading(
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
     tried: list[tuple[float, float, float]] = []
 
-    def refuse(c, a, name, avoid, action, push, mass):  # type: ignore[no-untyped-def]
+    def refuse(c, a, name, avoid, action, push, mass, stop_clear):  # type: ignore[no-untyped-def]
         tried.append((push.heading, push.aperture, mass))
         return Failure(name, action, "refused")
 

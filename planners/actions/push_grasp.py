@@ -254,9 +254,11 @@ def _over_offsets(
         ctx.push_plans[(name, heading, aperture)] = pushes
     if pushes:  # one per lateral offset; none where no offset can capture every sample
         with ctx.stats.timed("clearance"):  # the planar test and what earlier ones found
-            early, clear = _before_ik(ctx, name, avoid, action, heading, aperture, pushes)
+            early, clear, stops_clear = _before_ik(
+                ctx, name, avoid, action, heading, aperture, pushes
+            )
     else:
-        early, clear = [Failure(name, action, MISSES_SAMPLES)], []
+        early, clear, stops_clear = [Failure(name, action, MISSES_SAMPLES)], [], set()
     masses = _belief_masses(ctx, name, clear)
     ranked = sorted(zip(clear, masses, strict=True), key=lambda pm: -pm[1])  # stable
     bar = ctx.settings.preferred_mass
@@ -269,7 +271,8 @@ def _over_offsets(
         blocked = _blocked_before(ctx, name, push, avoid.labels)
         if blocked is not None:
             return Failure(name, action, blocked.reason, blocked.blocker)
-        outcome = _push_at(ctx, arm, name, avoid, action, push, mass)
+        stop_clear = push.offset in stops_clear
+        outcome = _push_at(ctx, arm, name, avoid, action, push, mass, stop_clear)
         if isinstance(outcome, Failure) and outcome.blocker:
             hand = BlockedHand(outcome.reason, outcome.blocker, planar=False)
             ctx.blocked_hands[_hand_key(name, push)] = hand
@@ -294,10 +297,11 @@ def _before_ik(
     heading: float,
     aperture: float,
     pushes: list[PlannedPush | None],
-) -> tuple[list[Failure], list[PlannedPush]]:
+) -> tuple[list[Failure], list[PlannedPush], set[float]]:
     """The offsets that fail before any IK (the capture misses a sample, or the planar test
     finds the hand on a neighbour where it stops, now or under an earlier avoidVol that
-    held it), and the pushes past them, each list in offset order."""
+    held it), and the pushes past them, each list in offset order; and the offsets whose
+    stop the planar test found clear here (`hand_in` then tests only the way in)."""
     # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
     # planar tests behind such failures see that object alone.
     known = [None if p is None else _blocked_before(ctx, name, p, avoid.labels) for p in pushes]
@@ -308,6 +312,7 @@ def _before_ik(
     blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
     early: list[Failure] = []
     clear: list[PlannedPush] = []
+    stops_clear: set[float] = set()
     for push, blocked in zip(pushes, known, strict=True):
         if push is None:
             early.append(Failure(name, action, MISSES_SAMPLES))
@@ -319,7 +324,9 @@ def _before_ik(
             ctx.blocked_hands[_hand_key(name, push)] = BlockedHand(why, blocker, planar=True)
         else:
             clear.append(push)
-    return early, clear
+            if blocked is None:
+                stops_clear.add(push.offset)
+    return early, clear, stops_clear
 
 
 def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
@@ -531,8 +538,10 @@ def _push_at(
     action: str,
     push: PlannedPush,
     mass: float,
+    stop_clear: bool,
 ) -> tuple[HandIn, dict[str, float]] | Failure:
-    """The push's motion, nu_o and parameters, or why the arm cannot make it."""
+    """The push's motion, nu_o and parameters, or why the arm cannot make it (``stop_clear``:
+    the planar test found the hand's stop clear of avoidVol)."""
     nu_o = _PushEvolution(ctx, name, push)
     details = {
         "heading_deg": math.degrees(push.heading),
@@ -544,7 +553,17 @@ def _push_at(
     profile = push_grasp_profile(push.aperture)
     line = (push.start, push.end)
     moved = hand_in(
-        ctx, arm, name, action, avoid, line, push.heading, profile, nu_o.evolve, nu_o.pilots
+        ctx,
+        arm,
+        name,
+        action,
+        avoid,
+        line,
+        push.heading,
+        profile,
+        nu_o.evolve,
+        nu_o.pilots,
+        stop_clear=stop_clear,
     )
     if isinstance(moved, Failure):
         return moved
