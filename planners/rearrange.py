@@ -16,7 +16,10 @@ keeps plans short (the paper's aim in §2.2.6).
 
 from __future__ import annotations
 
+import gc
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -190,23 +193,24 @@ def plan_retrieval(
     began = time.perf_counter()
     search = _Search(ctx, arm, np.clip(q0, lower, upper), kind.actions)
     reason = ""
-    try:
-        # Objects the planner may not or cannot move are avoided by every motion.
-        fixed = tuple(
-            sorted(
-                b.name
-                for b in beliefs
-                if b.name != goal
-                and not (kind.moves_obstacles and any(CAN_MOVE[a](b.spec) for a in kind.actions))
-            )
+    # Objects the planner may not or cannot move are avoided by every motion.
+    fixed = tuple(
+        sorted(
+            b.name
+            for b in beliefs
+            if b.name != goal
+            and not (kind.moves_obstacles and any(CAN_MOVE[a](b.spec) for a in kind.actions))
         )
-        others = tuple(sorted(set(names) - {goal}))
-        steps = search.retrieve(goal, others, fixed)
-        if steps is None:
-            reason = "no plan: every action for the goal object failed (see blocked_by)"
-    except BudgetExceeded:
-        steps = None
-        reason = f"time budget of {settings.time_budget:g} s exhausted before a plan was found"
+    )
+    others = tuple(sorted(set(names) - {goal}))
+    with _scanning_only_the_plan():
+        try:
+            steps = search.retrieve(goal, others, fixed)
+            if steps is None:
+                reason = "no plan: every action for the goal object failed (see blocked_by)"
+        except BudgetExceeded:
+            steps = None
+            reason = f"time budget of {settings.time_budget:g} s exhausted before a plan was found"
     elapsed = time.perf_counter() - began
     return Plan(
         steps=steps or [],
@@ -216,6 +220,23 @@ def plan_retrieval(
         stats=ctx.stats.record(),
         blocked_by=[] if steps is not None else ctx.failures.blockers(),
     )
+
+
+@contextmanager
+def _scanning_only_the_plan() -> Iterator[None]:
+    """Keep the objects alive before the plan out of the collector's passes during it
+    (`gc.freeze`, undone after): the plan's allocations set off full passes, and each would
+    rescan every object the process holds (capture regions, maps, meshes, the caller's own),
+    0.18 s with 178k objects in a 0.26 s PG plan. Left alone where the caller has frozen
+    objects itself."""
+    if gc.get_freeze_count():
+        yield
+        return
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 NextStart = tuple[np.ndarray, HandCommand]

@@ -77,6 +77,33 @@ def fig3() -> tuple[Plan, list[ObjectBelief]]:
     return plan(beliefs, "red_can"), beliefs
 
 
+def test_the_objects_alive_before_a_plan_are_frozen_while_it_searches_and_only_then(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The plan's collections scan only its own objects (`gc.freeze` during the search): the
+    frozen set holds the process's objects while the search runs and is empty after it; a
+    caller's own frozen set is left as it was."""
+    import gc
+
+    from planners import rearrange
+
+    seen: list[int] = []
+
+    def retrieve(self: object, *_: object) -> None:
+        seen.append(gc.get_freeze_count())
+
+    monkeypatch.setattr(rearrange._Search, "retrieve", retrieve)
+    assert gc.get_freeze_count() == 0
+    assert not plan([belief("can", "soda_can", (0.7, 0.0, 0.0))]).success
+    assert seen[-1] > 1000 and gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        plan([belief("can", "soda_can", (0.7, 0.0, 0.0))])
+        assert seen[-1] > 1000 and gc.get_freeze_count() > 1000
+    finally:
+        gc.unfreeze()
+
+
 def test_a_free_can_is_one_pickup(lone_can: Plan) -> None:
     assert lone_can.success, lone_can.blocked_by
     assert [s.result.action for s in lone_can.steps] == ["pickup"]
