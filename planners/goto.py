@@ -209,9 +209,11 @@ def plan_goto(
     resolution: float = 0.01,
     constraint: JointConstraint | None = None,
     max_evaluations: int | None = None,
+    direct: bool = True,
 ) -> GoToResult:
     """Plan a collision-free joint path from start to goal within the joint limits: the
-    straight joint-space segment if it is free, else RRTConnect; with a ``constraint``,
+    straight joint-space segment if it is free (unless ``direct`` is False: the caller has
+    found it is not), else RRTConnect; with a ``constraint``,
     RRTConnect on its manifold (ProjectedStateSpace) and a densely interpolated path.
 
     The search stops after ``time_budget`` seconds or ``max_evaluations`` evaluations, whichever
@@ -248,9 +250,13 @@ def plan_goto(
     if error:
         return result(None, error)
     # Most transits between actions are free in a straight joint line: try it before OMPL.
-    direct = np.stack([q0, q1])
-    if constraint is None and all(count.free(q) for q in interpolate(direct, resolution)[1:-1]):
-        return result(direct, "")
+    line = np.stack([q0, q1])
+    if (
+        direct
+        and constraint is None
+        and all(count.free(q) for q in interpolate(line, resolution)[1:-1])
+    ):
+        return result(line, "")
     # OMPL checks each motion at its own sample points: a path it found can still touch an
     # obstacle between them, which the dense re-check catches; the next seed plans around it.
     error = ""

@@ -361,11 +361,18 @@ class Arm:
         where each failing search spends 5000)."""
         free = self.free_check(obstacles, hand)
         cleared = self._cleared(free, (start, goal))
-        path, reason = self.plan_path(start, goal, cleared, evaluations=evaluations)
+        if self._line_free(start, goal, cleared):
+            return np.stack([start, goal]), ""
+        enter = self._backed_out(goal, free)
+        if enter is not None and self._line_free(
+            start, enter[-1], self._cleared(free, (start, enter[-1]))
+        ):
+            return np.concatenate([start[None], enter[::-1]]), ""
+        path, reason = self.plan_path(start, goal, cleared, evaluations=evaluations, direct=False)
         # An end the cleared check refuses is one the plain check refuses (`_cleared`).
         if path is not None or not reason.startswith(NO_PATH):
             return path, reason
-        leave, enter = self._backed_out(start, free), self._backed_out(goal, free)
+        leave = self._backed_out(start, free)
         if leave is None and enter is None:
             return self.plan_path(start, goal, free, evaluations=evaluations)
         first = start if leave is None else leave[-1]
@@ -378,6 +385,13 @@ class Arm:
             path = np.concatenate(parts if enter is None else [*parts, enter[-2::-1]])
             return path, ""
         return None, reason
+
+    def _line_free(self, start: np.ndarray, goal: np.ndarray, free: Free) -> bool:
+        """Whether the straight joint segment from start to goal is ``free`` at both ends
+        and every `ARM_CHECK_STEP` between them."""
+        self.budget.check()
+        with self.stats.timed("goto"):
+            return all(free(q) for q in interpolate(np.stack([start, goal]), ARM_CHECK_STEP))
 
     @staticmethod
     def _cleared(check: ArmCheck, ends: tuple[np.ndarray, ...]) -> Free:
@@ -418,9 +432,10 @@ class Arm:
         free: Free,
         constraint: JointConstraint | None = None,
         evaluations: int | None = None,
+        direct: bool = True,
     ) -> tuple[np.ndarray | None, str]:
         """`plan_goto` within this plan's budget and seed and ``evaluations`` (default the
-        settings' `goto_evaluations`): (path or None, reason)."""
+        settings' `goto_evaluations`; ``direct`` as there): (path or None, reason)."""
         self.budget.check()
         with self.stats.timed("goto"):
             result = plan_goto(
@@ -434,6 +449,7 @@ class Arm:
                 resolution=ARM_CHECK_STEP,
                 constraint=constraint,
                 max_evaluations=evaluations or self.settings.goto_evaluations,
+                direct=direct,
             )
         return result.path, result.reason
 
