@@ -348,7 +348,11 @@ class Arm:
         each search within ``evaluations`` (default the settings' `goto_evaluations`).
 
         The path keeps `GOTO_CLEARANCE` from the obstacles but within `END_ZONE` of an end
-        nearer than that (`_cleared`). Where RRTConnect finds no such path, an end usually
+        nearer than that (`_cleared`). Where the straight joint line is blocked, the line to
+        the goal's backed-out configuration (below) and the hand's straight way in from there
+        come before any search: most approaches are blocked only near the goal, where the hand
+        comes in (Table 1 none_00 sigma2: RRTConnect spent 3559 collision checks on one).
+        Where RRTConnect finds no such path, an end usually
         stands in a narrow pocket (a hand beside what it released or among the shelf's walls:
         seven approaches one shelf scene lost found no path with 50000 evaluations either,
         and from none could the hand move 5 cm toward the robot). A real hand leaves such a
