@@ -487,45 +487,6 @@ def deepest_side(px: float, py: float, verts: np.ndarray, k: int) -> float:
 
 
 @njit(cache=True)
-def overlaps(
-    box: bool,
-    radius: float,
-    hx: float,
-    hy: float,
-    bounding_radius: float,
-    poses: np.ndarray,
-    depth: float,
-    polygons: np.ndarray,
-    counts: np.ndarray,
-    disc_centres: np.ndarray,
-    disc_radii: np.ndarray,
-) -> np.ndarray:
-    """`push_simulation.overlaps`: whether the object at each pose (N, 3) overlaps the pusher
-    by more than ``depth`` (`_pose_overlaps`)."""
-    centres, radii = _polygon_circles(polygons, counts)
-    hit = np.zeros(len(poses), dtype=np.bool_)
-    corners = np.empty((4, 2))
-    for i in range(len(poses)):
-        hit[i] = _pose_overlaps(
-            box,
-            radius,
-            hx,
-            hy,
-            bounding_radius,
-            poses[i],
-            depth,
-            corners,
-            polygons,
-            counts,
-            centres,
-            radii,
-            disc_centres,
-            disc_radii,
-        )
-    return hit
-
-
-@njit(cache=True)
 def overlapped_at(
     box: bool,
     radius: float,
@@ -542,11 +503,17 @@ def overlapped_at(
     disc_centres: np.ndarray,
     disc_radii: np.ndarray,
 ) -> np.ndarray:
-    """Whether the pusher at each of ``shifts`` (M, 2) still ``free`` overlaps the object, by
-    more than ``depth``, at any of its poses ``local`` (N, 3), all in one frame: (M,). A pose
-    whose bounding circle misses the pusher's ``bounds`` (x_min, x_max, y_min, y_max) is not
-    tested, and a position's tests end at its first overlap."""
-    centres, radii = _polygon_circles(polygons, counts)
+    """`push_simulation.overlapped_at`. A pose whose bounding circle misses the pusher's
+    ``bounds`` is not tested, nor a polygon whose bounding circle the object's misses by
+    ``depth``; a box overlapping a polygon that deep has one of its corners, or one of the
+    polygon's vertices, inside the other by more than ``depth``."""
+    centres, radii = np.zeros((len(polygons), 2)), np.zeros(len(polygons))
+    for q in range(len(polygons)):  # the polygons' bounding circles
+        k = counts[q]
+        centres[q] = polygons[q, :k].sum(axis=0) / k
+        for j in range(k):
+            dx, dy = polygons[q, j, 0] - centres[q, 0], polygons[q, j, 1] - centres[q, 1]
+            radii[q] = max(radii[q], math.sqrt(dx * dx + dy * dy))
     x0, x1, y0, y1 = bounds
     r = bounding_radius
     hit = np.zeros(len(shifts), dtype=np.bool_)
@@ -559,69 +526,15 @@ def overlapped_at(
             x, y = local[i, 0] - shifts[m, 0], local[i, 1] - shifts[m, 1]
             if not (x + r > x0 and x - r < x1 and y + r > y0 and y - r < y1):
                 continue
-            pose[0], pose[1], pose[2] = x, y, local[i, 2]
-            if _pose_overlaps(
-                box,
-                radius,
-                hx,
-                hy,
-                bounding_radius,
-                pose,
-                depth,
-                corners,
-                polygons,
-                counts,
-                centres,
-                radii,
-                disc_centres,
-                disc_radii,
-            ):
+            if box:
+                pose[0], pose[1], pose[2] = x, y, local[i, 2]
+                box_corners(hx, hy, pose, corners)
+            if _polygons_overlap(
+                box, x, y, corners, r - depth, depth, polygons, counts, centres, radii
+            ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii):
                 hit[m] = True
                 break
     return hit
-
-
-@njit(cache=True)
-def _polygon_circles(polygons: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The centroid of each polygon's vertices and the radius about it that holds them."""
-    centres = np.zeros((len(polygons), 2))
-    radii = np.zeros(len(polygons))
-    for q in range(len(polygons)):
-        k = counts[q]
-        centres[q] = polygons[q, :k].sum(axis=0) / k
-        for j in range(k):
-            dx, dy = polygons[q, j, 0] - centres[q, 0], polygons[q, j, 1] - centres[q, 1]
-            radii[q] = max(radii[q], math.sqrt(dx * dx + dy * dy))
-    return centres, radii
-
-
-@njit(cache=True)
-def _pose_overlaps(
-    box: bool,
-    radius: float,
-    hx: float,
-    hy: float,
-    bounding_radius: float,
-    pose: np.ndarray,
-    depth: float,
-    corners: np.ndarray,
-    polygons: np.ndarray,
-    counts: np.ndarray,
-    centres: np.ndarray,
-    radii: np.ndarray,
-    disc_centres: np.ndarray,
-    disc_radii: np.ndarray,
-) -> bool:
-    """Whether the object at ``pose`` overlaps the pusher by more than ``depth``. A polygon
-    whose bounding circle (``centres``, ``radii``) the object's misses by that depth is
-    skipped; a box overlapping a polygon that deep has one of its corners, or one of the
-    polygon's vertices, inside the other by more than ``depth``. ``corners``: scratch (4, 2)."""
-    x, y = pose[0], pose[1]
-    if box:
-        box_corners(hx, hy, pose, corners)
-    return _polygons_overlap(
-        box, x, y, corners, bounding_radius - depth, depth, polygons, counts, centres, radii
-    ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii)
 
 
 @njit(cache=True)

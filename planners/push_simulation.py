@@ -200,15 +200,30 @@ def smallest_gap(footprint: Footprint, pusher: Pusher, poses: np.ndarray) -> np.
     return out
 
 
-def overlaps(footprint: Footprint, pusher: Pusher, poses: np.ndarray, depth: float) -> np.ndarray:
-    """``smallest_gap(footprint, pusher, poses) < -depth`` (N,) at a fraction of its cost
-    (`push_kernels.overlaps`: only the half-plane tests, and only against the pusher's shapes
-    within reach). The planner's 2D hand test asks this thousands of times per plan in clutter."""
-    return push_kernels.overlaps(
-        *shape_args(footprint),
+def overlapped_at(
+    footprint: Footprint,
+    pusher: Pusher,
+    local: np.ndarray,
+    shifts: np.ndarray,
+    depth: float,
+    free: np.ndarray | None = None,
+) -> np.ndarray:
+    """Whether the pusher moved to each of ``shifts`` (M, 2) overlaps the object by more than
+    ``depth`` at any of its poses ``local`` (N, 3), both in the pusher's frame: (M,), where
+    ``smallest_gap(footprint, pusher, local - shift) < -depth`` for some pose; positions not
+    ``free`` (default all free) are not tested and answer False. At a fraction of the gap's
+    cost (`push_kernels.overlapped_at`: only the half-plane tests, only against the pusher's
+    shapes within reach, a position's tests ending at its first overlap): the planner's 2D
+    hand test asks this for thousands of hand poses per plan in clutter."""
+    shifts = np.ascontiguousarray(shifts, dtype=float).reshape(-1, 2)
+    return push_kernels.overlapped_at(
+        *_shape_args(footprint),
         footprint.bounding_radius,
-        np.ascontiguousarray(poses, dtype=float).reshape(-1, 3),
+        np.ascontiguousarray(local, dtype=float).reshape(-1, 3),
+        shifts,
+        np.ones(len(shifts), dtype=bool) if free is None else np.asarray(free, dtype=bool),
         depth,
+        pusher.bounds,
         *pusher.packed,
     )
 
@@ -232,12 +247,12 @@ def contacts(
     )
     for i in range(len(poses)):
         push_kernels.candidates(
-            *shape_args(footprint), poses[i], *packed, gaps[i], points[i], normals[i]
+            *_shape_args(footprint), poses[i], *packed, gaps[i], points[i], normals[i]
         )
     return gaps, points, normals
 
 
-def shape_args(footprint: Footprint) -> tuple[bool, float, float, float]:
+def _shape_args(footprint: Footprint) -> tuple[bool, float, float, float]:
     """(is a box, radius, half extents) of a footprint, as the kernels take them."""
     box = footprint.shape == "box"
     hx, hy = footprint.half_extents if box else (0.0, 0.0)
@@ -376,7 +391,7 @@ def _contact_twist(
     packed = pusher.packed
     size = push_kernels.candidate_count(footprint.shape == "box", packed[1], len(packed[3]))
     return push_kernels.contact_twists(
-        *shape_args(footprint),
+        *_shape_args(footprint),
         footprint.bounding_radius,
         np.ascontiguousarray(poses, dtype=float),
         np.ascontiguousarray(mu, dtype=float),
@@ -405,6 +420,6 @@ def warm_up() -> None:
     pose = np.array([[0.05, 0.0, 0.1]])
     for footprint in (Footprint("box", half_extents=(0.02, 0.03)), Footprint("circle", 0.03)):
         simulate_push(footprint, pusher, pose, 0.5, 0.02, 0.03)
-        overlaps(footprint, pusher, pose, 0.002)
+        overlapped_at(footprint, pusher, pose, np.zeros((1, 2)), 0.002)
         contacts(footprint, pusher, pose)
     pushing.warm_up()

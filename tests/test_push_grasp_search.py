@@ -439,7 +439,7 @@ def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_over
     cross-section overlaps."""
     from planners.actions.clearance import OVERLAP, _blockers
     from planners.hand2d import push_grasp_profile
-    from planners.push_simulation import overlaps
+    from planners.push_simulation import smallest_gap
 
     rng = np.random.default_rng(0)
     pusher = push_grasp_profile(0.15).pusher
@@ -456,7 +456,7 @@ def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_over
             hits = [
                 name
                 for name, footprint, local in objects
-                if overlaps(footprint, pusher, local - [*shift, 0.0], OVERLAP).any()
+                if (smallest_gap(footprint, pusher, local - [*shift, 0.0]) < -OVERLAP).any()
             ]
             expected.append(hits[0] if hits else "")
         assert _blockers(pusher, objects, shifts) == expected

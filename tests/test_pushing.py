@@ -17,7 +17,7 @@ from planners.push_simulation import (
     Pusher,
     PushState,
     contacts,
-    overlaps,
+    overlapped_at,
     simulate_push,
     smallest_gap,
     swept,
@@ -259,14 +259,31 @@ def test_overlap_test_agrees_with_the_smallest_gap(kind: str, hand: str) -> None
         "sweep": sweep_profile().pusher,
     }[hand]
     rng = np.random.default_rng(11)
-    poses = np.column_stack(
-        [rng.uniform(-0.3, 0.5, 4000), rng.uniform(-0.3, 0.3, 4000), rng.uniform(-3, 3, 4000)]
-    )
+    # One pose per hand position: the object at (0, 0, theta), the hand moved to -xy.
+    thetas = rng.uniform(-3, 3, 20)
+    xys = np.column_stack([rng.uniform(-0.3, 0.5, 4000), rng.uniform(-0.3, 0.3, 4000)])
+    poses = np.column_stack([xys, np.repeat(thetas, 200)])
     gap = smallest_gap(footprint, pusher, poses)
     for depth in (1e-4, 2e-3, 0.02):
-        found = overlaps(footprint, pusher, poses, depth)
+        found = np.concatenate(
+            [
+                overlapped_at(
+                    footprint, pusher, [[0.0, 0.0, t]], -xys[k * 200 : (k + 1) * 200], depth
+                )
+                for k, t in enumerate(thetas)
+            ]
+        )
         assert found.any() and not found.all()
         np.testing.assert_array_equal(found, gap < -depth)
+    # Many poses at once: a hand position overlaps where any of them does, and one not free
+    # answers False.
+    local = np.column_stack([rng.normal(0.1, 0.05, (30, 2)), rng.uniform(-3, 3, 30)])
+    shifts = rng.uniform([-0.2, -0.3], [0.4, 0.3], (300, 2))
+    free = rng.random(300) < 0.8
+    expected = [(smallest_gap(footprint, pusher, local - [*s, 0.0]) < -2e-3).any() for s in shifts]
+    found = overlapped_at(footprint, pusher, local, shifts, 2e-3, free)
+    assert 0 < found.sum() < free.sum()
+    np.testing.assert_array_equal(found, np.array(expected) & free)
 
 
 @settings(max_examples=200, deadline=None)

@@ -22,9 +22,8 @@ from numpy.typing import ArrayLike
 from clutter_gym.model.collision import Volume
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
-from planners import push_kernels
 from planners.actions.context import PlanningContext
-from planners.push_simulation import Pusher, shape_args, swept
+from planners.push_simulation import Pusher, overlapped_at, swept
 from planners.uncertainty import ObjectBelief
 
 OVERLAP = 2e-3
@@ -51,23 +50,13 @@ def _blockers(
     """For each of the hand's poses, ``shifts`` (M, 2) from the origin of the objects' frame
     (the hand turned as that frame), the first object by name one of whose sample poses its
     cross-section overlaps, or "" (one compiled pass per object over the hand poses still
-    free, `push_kernels.overlapped_at`: a pose's test ends at its first overlapping sample)."""
+    free, `push_simulation.overlapped_at`: a pose's test ends at its first overlapping sample)."""
     blockers = [""] * len(shifts)
     free = np.ones(len(shifts), dtype=bool)
-    shifts = np.ascontiguousarray(shifts, dtype=float).reshape(-1, 2)
     for name, footprint, local in objects:
         if not free.any():
             break
-        hit = push_kernels.overlapped_at(
-            *shape_args(footprint),
-            footprint.bounding_radius,
-            local,
-            shifts,
-            free,
-            OVERLAP,
-            pusher.bounds,
-            *pusher.packed,
-        )
+        hit = overlapped_at(footprint, pusher, local, shifts, OVERLAP, free)
         for k in np.flatnonzero(hit):
             blockers[k] = name
         free &= ~hit
