@@ -69,13 +69,14 @@ def _facing(
     """The samples of each relevant object in the frame at the world's origin turned to
     ``angle`` (as the planner keeps them for that heading), mirrored across its x for
     ``handedness`` -1 (a sweep with the hand's other side)."""
-    mirror = np.array([1.0, float(handedness), float(handedness)])
-    return [
-        (name, belief.spec.footprint, ctx.samples_facing(name, angle) * mirror)
-        if handedness < 0
-        else (name, belief.spec.footprint, ctx.samples_facing(name, angle))
+    facing = [
+        (name, belief.spec.footprint, ctx.samples_facing(name, angle))
         for name, belief in _relevant(ctx, avoid, z)
     ]
+    if handedness > 0:
+        return facing
+    mirror = np.array([1.0, -1.0, -1.0])
+    return [(name, footprint, local * mirror) for name, footprint, local in facing]
 
 
 def _shifts(points: ArrayLike, angle: float, handedness: int = 1) -> np.ndarray:
