@@ -487,15 +487,11 @@ def deepest_side(px: float, py: float, verts: np.ndarray, k: int) -> float:
 
 
 @njit(cache=True)
-def overlapped_at(
-    box: bool,
-    radius: float,
-    hx: float,
-    hy: float,
-    bounding_radius: float,
+def first_overlapped(
+    shapes: np.ndarray,
     local: np.ndarray,
+    ends: np.ndarray,
     shifts: np.ndarray,
-    free: np.ndarray,
     depth: float,
     bounds: tuple[float, float, float, float],
     polygons: np.ndarray,
@@ -503,7 +499,7 @@ def overlapped_at(
     disc_centres: np.ndarray,
     disc_radii: np.ndarray,
 ) -> np.ndarray:
-    """`push_simulation.overlapped_at`. A pose whose bounding circle misses the pusher's
+    """`push_simulation.first_overlapped`. A pose whose bounding circle misses the pusher's
     ``bounds`` is not tested, nor a polygon whose bounding circle the object's misses by
     ``depth``; a box overlapping a polygon that deep has one of its corners, or one of the
     polygon's vertices, inside the other by more than ``depth``."""
@@ -515,26 +511,28 @@ def overlapped_at(
             dx, dy = polygons[q, j, 0] - centres[q, 0], polygons[q, j, 1] - centres[q, 1]
             radii[q] = max(radii[q], math.sqrt(dx * dx + dy * dy))
     x0, x1, y0, y1 = bounds
-    r = bounding_radius
-    hit = np.zeros(len(shifts), dtype=np.bool_)
+    first = np.full(len(shifts), -1)
     corners = np.empty((4, 2))
     pose = np.empty(3)
     for m in range(len(shifts)):
-        if not free[m]:
-            continue
-        for i in range(len(local)):
-            x, y = local[i, 0] - shifts[m, 0], local[i, 1] - shifts[m, 1]
-            if not (x + r > x0 and x - r < x1 and y + r > y0 and y - r < y1):
-                continue
-            if box:
-                pose[0], pose[1], pose[2] = x, y, local[i, 2]
-                box_corners(hx, hy, pose, corners)
-            if _polygons_overlap(
-                box, x, y, corners, r - depth, depth, polygons, counts, centres, radii
-            ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii):
-                hit[m] = True
+        for o in range(len(shapes)):
+            box, radius, r = shapes[o, 0] > 0.0, shapes[o, 1], shapes[o, 4]
+            hx, hy = shapes[o, 2], shapes[o, 3]
+            for i in range(ends[o], ends[o + 1]):
+                x, y = local[i, 0] - shifts[m, 0], local[i, 1] - shifts[m, 1]
+                if not (x + r > x0 and x - r < x1 and y + r > y0 and y - r < y1):
+                    continue
+                if box:
+                    pose[0], pose[1], pose[2] = x, y, local[i, 2]
+                    box_corners(hx, hy, pose, corners)
+                if _polygons_overlap(
+                    box, x, y, corners, r - depth, depth, polygons, counts, centres, radii
+                ) or _discs_overlap(box, radius, x, y, corners, depth, disc_centres, disc_radii):
+                    first[m] = o
+                    break
+            if first[m] >= 0:
                 break
-    return hit
+    return first
 
 
 @njit(cache=True)

@@ -10,7 +10,7 @@ call (`planners.push_kernels`).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -200,28 +200,41 @@ def smallest_gap(footprint: Footprint, pusher: Pusher, poses: np.ndarray) -> np.
     return out
 
 
-def overlapped_at(
-    footprint: Footprint,
-    pusher: Pusher,
-    local: np.ndarray,
-    shifts: np.ndarray,
-    depth: float,
-    free: np.ndarray | None = None,
+@dataclass(frozen=True)
+class PoseSets:
+    """The poses of several objects, packed as the overlap kernel takes them: the planner
+    packs the objects it avoids once per heading and tests thousands of hand positions."""
+
+    shapes: np.ndarray  # (O, 5): a box (1) or a disc (0), its radius, half extents, reach
+    poses: np.ndarray  # (N, 3): the objects' poses, object after object
+    ends: np.ndarray  # (O + 1,): object o's poses are poses[ends[o]:ends[o + 1]]
+
+    @classmethod
+    def of(cls, objects: Sequence[tuple[Footprint, np.ndarray]]) -> PoseSets:
+        """From (outline, poses (N_o, 3)) per object."""
+        shapes = [(*_shape_args(f), f.bounding_radius) for f, _ in objects]
+        poses = [np.asarray(p, dtype=float).reshape(-1, 3) for _, p in objects]
+        return cls(
+            np.array(shapes, dtype=float).reshape(-1, 5),
+            np.concatenate(poses) if poses else np.zeros((0, 3)),
+            np.cumsum([0] + [len(p) for p in poses]),
+        )
+
+
+def first_overlapped(
+    sets: PoseSets, pusher: Pusher, shifts: np.ndarray, depth: float
 ) -> np.ndarray:
-    """Whether the pusher moved to each of ``shifts`` (M, 2) overlaps the object by more than
-    ``depth`` at any of its poses ``local`` (N, 3), both in the pusher's frame: (M,), where
-    ``smallest_gap(footprint, pusher, local - shift) < -depth`` for some pose; positions not
-    ``free`` (default all free) are not tested and answer False. At a fraction of the gap's
-    cost (`push_kernels.overlapped_at`: only the half-plane tests, only against the pusher's
-    shapes within reach, a position's tests ending at its first overlap): the planner's 2D
-    hand test asks this for thousands of hand poses per plan in clutter."""
-    shifts = np.ascontiguousarray(shifts, dtype=float).reshape(-1, 2)
-    return push_kernels.overlapped_at(
-        *_shape_args(footprint),
-        footprint.bounding_radius,
-        np.ascontiguousarray(local, dtype=float).reshape(-1, 3),
-        shifts,
-        np.ones(len(shifts), dtype=bool) if free is None else np.asarray(free, dtype=bool),
+    """For the pusher moved to each of ``shifts`` (M, 2): the first object of ``sets`` that it
+    overlaps by more than ``depth`` at any of its poses, both in the pusher's frame (where
+    ``smallest_gap(footprint, pusher, poses - shift) < -depth`` somewhere), or -1; (M,). At a
+    fraction of the gap's cost (`push_kernels.first_overlapped`: only the half-plane tests,
+    only against the pusher's shapes within reach, a position's tests ending at its first
+    overlap): the planner's 2D hand test asks this for thousands of hand poses per plan."""
+    return push_kernels.first_overlapped(
+        sets.shapes,
+        sets.poses,
+        sets.ends,
+        np.ascontiguousarray(shifts, dtype=float).reshape(-1, 2),
         depth,
         pusher.bounds,
         *pusher.packed,
@@ -420,6 +433,6 @@ def warm_up() -> None:
     pose = np.array([[0.05, 0.0, 0.1]])
     for footprint in (Footprint("box", half_extents=(0.02, 0.03)), Footprint("circle", 0.03)):
         simulate_push(footprint, pusher, pose, 0.5, 0.02, 0.03)
-        overlapped_at(footprint, pusher, pose, np.zeros((1, 2)), 0.002)
+        first_overlapped(PoseSets.of([(footprint, pose)]), pusher, np.zeros((1, 2)), 0.002)
         contacts(footprint, pusher, pose)
     pushing.warm_up()

@@ -183,7 +183,7 @@ def test_the_warm_ups_compile_every_kernel_called_from_python() -> None:
     overlap test was left out of the warm-up. In a fresh interpreter, after the warm-ups, every
     kernel the code calls has a compiled signature."""
     kernels = sorted(_kernels_called_from_python())
-    assert ("planners.push_kernels", "overlapped_at") in kernels
+    assert ("planners.push_kernels", "first_overlapped") in kernels
     check = (
         "import importlib, sys\n"
         "from clutter_gym.model import collision\n"

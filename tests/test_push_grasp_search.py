@@ -411,13 +411,13 @@ def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided
     blocked = {k for k, why in ctx.blocked_hands.items() if why.blocker == "bottle"}
     assert blocked
     tested: set[tuple[float, ...]] = set()
-    stops = clearance.stops_overlapping
+    lines = clearance.lines_overlapping
 
-    def counted(c, pusher, ends, heading, avoid, z):
+    def counted(c, pusher, starts, ends, heading, avoid, z):
         tested.update((heading, *np.round(e, 9)) for e in ends)
-        return stops(c, pusher, ends, heading, avoid, z)
+        return lines(c, pusher, starts, ends, heading, avoid, z)
 
-    monkeypatch.setattr(push_grasp, "stops_overlapping", counted)
+    monkeypatch.setattr(push_grasp, "lines_overlapping", counted)
     again = outcomes(ctx, ["bottle"])
     # The bottle blocks hands again (it is still avoided), and none of them was tested anew.
     assert any(o == "the hand overlaps bottle where it stops" for o in again)
@@ -428,18 +428,18 @@ def test_hand_poses_a_neighbour_blocked_are_not_tested_again_while_it_is_avoided
         if p is not None and p.offset == key[3]
     }
     assert len(blocked_ends) == len(blocked) and not blocked_ends & tested
-    monkeypatch.setattr(push_grasp, "stops_overlapping", stops)
+    monkeypatch.setattr(push_grasp, "lines_overlapping", lines)
     assert again == outcomes(context(), ["bottle"])
 
 
 def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_overlaps() -> None:
-    """`clearance._blockers` (one compiled pass per object over the hand poses still free,
-    skipping samples whose bounding circle misses the hand's box) against the plain
-    definition: per hand pose, the first object by name with any sample pose that the hand's
-    cross-section overlaps."""
+    """`clearance._blockers` (one compiled pass over the hand poses, a pose's test ending at
+    its first overlap, skipping samples whose bounding circle misses the hand's box) against
+    the plain definition: per hand pose, the first object by name with any sample pose that
+    the hand's cross-section overlaps."""
     from planners.actions.clearance import OVERLAP, _blockers
     from planners.hand2d import push_grasp_profile
-    from planners.push_simulation import smallest_gap
+    from planners.push_simulation import PoseSets, smallest_gap
 
     rng = np.random.default_rng(0)
     pusher = push_grasp_profile(0.15).pusher
@@ -459,9 +459,55 @@ def test_the_planar_hand_test_names_the_first_object_any_sample_of_which_it_over
                 if (smallest_gap(footprint, pusher, local - [*shift, 0.0]) < -OVERLAP).any()
             ]
             expected.append(hits[0] if hits else "")
-        assert _blockers(pusher, objects, shifts) == expected
+        packed = PoseSets.of([(footprint, local) for _, footprint, local in objects])
+        assert _blockers(pusher, (("a", "b", "c"), packed), shifts) == expected
         found.update(expected)
     assert found == {"", "a", "b", "c"}
+
+
+def test_the_planar_test_of_many_hand_motions_answers_each_as_alone() -> None:
+    """`clearance.lines_overlapping` tests the stops of every motion at once and then the ways
+    in grouped by swept length: each motion gets the answer it gets alone, which names the
+    object where the stop overlaps one, else where the hand swept from the start to the stop
+    does (`_swept`, the length rounded up to `SWEPT_RESOLUTION`), else nothing."""
+    from planners.actions.clearance import (
+        SWEPT_RESOLUTION,
+        _blockers,
+        _facing,
+        _shifts,
+        _swept,
+        lines_overlapping,
+    )
+    from planners.hand2d import push_grasp_profile
+
+    ctx = _scene_context(
+        ("can", "soda_can", (0.72, -0.25, 0.0)),
+        ("bottle", "juice_bottle", (0.72, -0.10, 0.0)),
+        ("box", "poptart_box", (0.80, -0.34, 0.4)),
+    )
+    pusher = push_grasp_profile(0.15).pusher
+    avoid = ctx.objects_volume(["bottle", "box"])
+    z = TABLE.top_z + 0.02
+    rng = np.random.default_rng(3)
+    heading = 0.3
+    along = np.array([math.cos(heading), math.sin(heading)])
+    ends = rng.uniform([0.45, -0.45], [0.75, 0.05], (60, 2))
+    starts = ends - rng.uniform(0.0, 0.25, (60, 1)) * along
+    found = lines_overlapping(ctx, pusher, starts, ends, heading, avoid, z)
+    objects = _facing(ctx, heading, 1, avoid, z)
+    for start, end, answer in zip(starts, ends, found, strict=True):
+        assert lines_overlapping(ctx, pusher, start, end, heading, avoid, z) == [answer]
+        (at_stop,) = _blockers(pusher, objects, _shifts(end, heading))
+        steps = math.ceil(float((end - start) @ along) / SWEPT_RESOLUTION - 1e-9)
+        (on_way,) = _blockers(_swept(pusher, steps), objects, _shifts(start, heading))
+        if at_stop:
+            assert answer == (f"the hand overlaps {at_stop} where it stops", at_stop)
+        elif on_way:
+            assert answer == (f"the hand sweeps through {on_way} on its way in", on_way)
+        else:
+            assert answer == ("", "")
+    assert {why.split(" ")[2] for why, _ in found if why} == {"overlaps", "sweeps"}
+    assert ("", "") in found
 
 
 def test_a_placement_meets_the_other_objects_exactly_where_their_shapes_overlap() -> None:
@@ -816,7 +862,7 @@ def test_pushes_holding_the_preferred_mass_are_tried_first_at_every_heading(
     arm = Arm(TABLE, ctx.settings, ctx.stats, ctx.budget)
     tried: list[tuple[float, float, float]] = []
 
-    def refuse(c, a, name, avoid, action, push, mass, stop_clear):  # type: ignore[no-untyped-def]
+    def refuse(c, a, name, avoid, action, push, mass):  # type: ignore[no-untyped-def]
         tried.append((push.heading, push.aperture, mass))
         return Failure(name, action, "refused")
 

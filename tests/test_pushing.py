@@ -14,10 +14,11 @@ from planners.hand2d import push_grasp_profile, sweep_profile
 from planners.push_kernels import MAX_CONTACTS, STICK, _nearest
 from planners.push_simulation import (
     ConvexPolygon,
+    PoseSets,
     Pusher,
     PushState,
     contacts,
-    overlapped_at,
+    first_overlapped,
     simulate_push,
     smallest_gap,
     swept,
@@ -267,23 +268,35 @@ def test_overlap_test_agrees_with_the_smallest_gap(kind: str, hand: str) -> None
     for depth in (1e-4, 2e-3, 0.02):
         found = np.concatenate(
             [
-                overlapped_at(
-                    footprint, pusher, [[0.0, 0.0, t]], -xys[k * 200 : (k + 1) * 200], depth
+                first_overlapped(
+                    PoseSets.of([(footprint, [[0.0, 0.0, t]])]),
+                    pusher,
+                    -xys[k * 200 : (k + 1) * 200],
+                    depth,
                 )
                 for k, t in enumerate(thetas)
             ]
         )
-        assert found.any() and not found.all()
-        np.testing.assert_array_equal(found, gap < -depth)
-    # Many poses at once: a hand position overlaps where any of them does, and one not free
-    # answers False.
-    local = np.column_stack([rng.normal(0.1, 0.05, (30, 2)), rng.uniform(-3, 3, 30)])
-    shifts = rng.uniform([-0.2, -0.3], [0.4, 0.3], (300, 2))
-    free = rng.random(300) < 0.8
-    expected = [(smallest_gap(footprint, pusher, local - [*s, 0.0]) < -2e-3).any() for s in shifts]
-    found = overlapped_at(footprint, pusher, local, shifts, 2e-3, free)
-    assert 0 < found.sum() < free.sum()
-    np.testing.assert_array_equal(found, np.array(expected) & free)
+        assert set(found) == {-1, 0}
+        np.testing.assert_array_equal(found == 0, gap < -depth)
+    # Many poses of two objects at once: a hand position overlaps an object where any of its
+    # poses does, and the first such object is named.
+    local = [
+        np.column_stack([rng.normal(c, 0.03, (30, 2)), rng.uniform(-3, 3, 30)])
+        for c in ((0.1, -0.25), (0.1, 0.25))
+    ]
+    other = OBJECTS["juice_bottle"].footprint
+    shifts = rng.uniform([-0.2, -0.6], [0.4, 0.6], (300, 2))
+    hits = [
+        [(smallest_gap(f, pusher, poses - [*s, 0.0]) < -2e-3).any() for s in shifts]
+        for f, poses in ((footprint, local[0]), (other, local[1]))
+    ]
+    expected = np.where(hits[0], 0, np.where(hits[1], 1, -1))
+    found = first_overlapped(
+        PoseSets.of([(footprint, local[0]), (other, local[1])]), pusher, shifts, 2e-3
+    )
+    assert set(found) == {-1, 0, 1}
+    np.testing.assert_array_equal(found, expected)
 
 
 @settings(max_examples=200, deadline=None)

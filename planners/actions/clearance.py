@@ -20,10 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from clutter_gym.model.collision import Volume
-from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from planners.actions.context import PlanningContext
-from planners.push_simulation import Pusher, overlapped_at, swept
+from planners.push_simulation import PoseSets, Pusher, first_overlapped, swept
 from planners.uncertainty import ObjectBelief
 
 OVERLAP = 2e-3
@@ -44,39 +43,30 @@ def _relevant(ctx: PlanningContext, avoid: Volume, z: float) -> list[tuple[str, 
     return found
 
 
-def _blockers(
-    pusher: Pusher, objects: list[tuple[str, Footprint, np.ndarray]], shifts: np.ndarray
-) -> list[str]:
+Facing = tuple[tuple[str, ...], PoseSets]
+"""The objects the hand may meet at one heading, by name, and their samples (`_facing`)."""
+
+
+def _blockers(pusher: Pusher, objects: Facing, shifts: np.ndarray) -> list[str]:
     """For each of the hand's poses, ``shifts`` (M, 2) from the origin of the objects' frame
     (the hand turned as that frame), the first object by name one of whose sample poses its
-    cross-section overlaps, or "" (one compiled pass per object over the hand poses still
-    free, `push_simulation.overlapped_at`: a pose's test ends at its first overlapping sample)."""
-    blockers = [""] * len(shifts)
-    free = np.ones(len(shifts), dtype=bool)
-    for name, footprint, local in objects:
-        if not free.any():
-            break
-        hit = overlapped_at(footprint, pusher, local, shifts, OVERLAP, free)
-        for k in np.flatnonzero(hit):
-            blockers[k] = name
-        free &= ~hit
-    return blockers
+    cross-section overlaps, or "" (one compiled pass, `push_simulation.first_overlapped`: a
+    pose's test ends at its first overlapping sample)."""
+    names, poses = objects
+    return [names[o] if o >= 0 else "" for o in first_overlapped(poses, pusher, shifts, OVERLAP)]
 
 
-def _facing(
-    ctx: PlanningContext, angle: float, handedness: int, avoid: Volume, z: float
-) -> list[tuple[str, Footprint, np.ndarray]]:
+def _facing(ctx: PlanningContext, angle: float, handedness: int, avoid: Volume, z: float) -> Facing:
     """The samples of each relevant object in the frame at the world's origin turned to
     ``angle`` (as the planner keeps them for that heading), mirrored across its x for
-    ``handedness`` -1 (a sweep with the hand's other side)."""
-    facing = [
-        (name, belief.spec.footprint, ctx.samples_facing(name, angle))
-        for name, belief in _relevant(ctx, avoid, z)
-    ]
-    if handedness > 0:
-        return facing
-    mirror = np.array([1.0, -1.0, -1.0])
-    return [(name, footprint, local * mirror) for name, footprint, local in facing]
+    ``handedness`` -1 (a sweep with the hand's other side); packed once per plan."""
+    key = (angle, handedness, avoid.labels, z)
+    if key not in ctx.planar_objects:
+        mirror = np.array([1.0, float(handedness), float(handedness)])
+        relevant = _relevant(ctx, avoid, z)
+        sets = [(b.spec.footprint, ctx.samples_facing(n, angle) * mirror) for n, b in relevant]
+        ctx.planar_objects[key] = (tuple(n for n, _ in relevant), PoseSets.of(sets))
+    return ctx.planar_objects[key]
 
 
 def _shifts(points: ArrayLike, angle: float, handedness: int = 1) -> np.ndarray:
@@ -96,14 +86,40 @@ def overlapped(
         return _blockers(pusher, objects, _shifts(frame.origin, frame.angle, frame.handedness))[0]
 
 
-def stops_overlapping(
-    ctx: PlanningContext, pusher: Pusher, ends: np.ndarray, heading: float, avoid: Volume, z: float
-) -> list[str]:
-    """`overlapped` for many hand_base positions ``ends`` (M, 2) at one ``heading``: the
-    object each hand overlaps there, or "" (one pass per object: the push-grasp search asks
-    this for every lateral offset of a direction and aperture at once)."""
+def lines_overlapping(
+    ctx: PlanningContext,
+    pusher: Pusher,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    heading: float,
+    avoid: Volume,
+    z: float,
+) -> list[tuple[str, str]]:
+    """Why the hand moving straight from each of ``starts`` to ``ends`` (M, 2; hand_base
+    positions) at ``heading`` cannot be collision-free, and the object it overlaps where it
+    stops or on its way; ("", "") where it can. A longer push passes through every pose of a
+    shorter one, so this also rules out pushing further. One pass per object for every stop,
+    then one per object and swept length for the ways in of the motions whose stop is clear:
+    the push-grasp search asks this for every lateral offset of a direction and aperture."""
     with ctx.stats.timed("clearance"):
-        return _blockers(pusher, _facing(ctx, heading, 1, avoid, z), _shifts(ends, heading))
+        starts, ends = (np.asarray(a, dtype=float).reshape(-1, 2) for a in (starts, ends))
+        found = [("", "")] * len(ends)
+        objects = _facing(ctx, heading, 1, avoid, z)
+        if not objects[0]:
+            return found
+        ways_in: dict[int, list[int]] = {}  # swept steps -> motions whose stop is clear
+        lengths = (ends - starts) @ np.array([math.cos(heading), math.sin(heading)])
+        for k, blocker in enumerate(_blockers(pusher, objects, _shifts(ends, heading))):
+            if blocker:
+                found[k] = (f"the hand overlaps {blocker} where it stops", blocker)
+            elif lengths[k] > 0.0:
+                ways_in.setdefault(_swept_steps(float(lengths[k])), []).append(k)
+        for steps, ks in ways_in.items():
+            on_way = _blockers(_swept(pusher, steps), objects, _shifts(starts[ks], heading))
+            for k, blocker in zip(ks, on_way, strict=True):
+                if blocker:
+                    found[k] = (f"the hand sweeps through {blocker} on its way in", blocker)
+        return found
 
 
 def line_overlap(
@@ -113,29 +129,9 @@ def line_overlap(
     heading: float,
     avoid: Volume,
     z: float,
-    stop_clear: bool = False,
 ) -> tuple[str, str]:
-    """Why the hand moving straight along ``line`` (hand_base positions) at ``heading`` cannot
-    be collision-free, and the object it overlaps where it stops or on its way; ("", "") if
-    it can. A longer push passes through every pose of a shorter one, so this also rules out
-    pushing further. ``stop_clear``: the caller has found the stop free
-    (`stops_overlapping`), only the way in is tested."""
-    with ctx.stats.timed("clearance"):
-        start, end = line
-        objects = _facing(ctx, heading, 1, avoid, z)
-        if not objects:
-            return "", ""
-        if not stop_clear:  # most blocked candidates fail where the hand stops: one pose's test
-            (blocker,) = _blockers(pusher, objects, _shifts(end, heading))
-            if blocker:
-                return f"the hand overlaps {blocker} where it stops", blocker
-        length = float((end - start) @ np.array([math.cos(heading), math.sin(heading)]))
-        if length <= 0.0:
-            return "", ""
-        (blocker,) = _blockers(_swept(pusher, length), objects, _shifts(start, heading))
-        if blocker:
-            return f"the hand sweeps through {blocker} on its way in", blocker
-        return "", ""
+    """`lines_overlapping` of one motion."""
+    return lines_overlapping(ctx, pusher, line[0], line[1], heading, avoid, z)[0]
 
 
 SWEPT_RESOLUTION = 0.002
@@ -143,10 +139,10 @@ SWEPT_RESOLUTION = 0.002
 than testing against it); the same as `OVERLAP`, so the test stays sound."""
 
 
-def _swept(pusher: Pusher, length: float) -> Pusher:
-    return _swept_steps(pusher, math.ceil(length / SWEPT_RESOLUTION - 1e-9))
+def _swept_steps(length: float) -> int:
+    return math.ceil(length / SWEPT_RESOLUTION - 1e-9)
 
 
 @functools.lru_cache(maxsize=4096)
-def _swept_steps(pusher: Pusher, steps: int) -> Pusher:
+def _swept(pusher: Pusher, steps: int) -> Pusher:
     return swept(pusher, steps * SWEPT_RESOLUTION)

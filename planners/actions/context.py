@@ -20,6 +20,7 @@ from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, swee
 from planners.uncertainty import ObjectBelief
 
 if TYPE_CHECKING:
+    from planners.actions.clearance import Facing
     from planners.actions.pick_and_place import GraspToPlace
     from planners.actions.push_grasp import BlockedHand, HandInSearch, PlannedPush
     from planners.actions.sweep import SweepEvolution
@@ -87,6 +88,9 @@ class PlanningContext:
         #: and avoidVol (`pick_and_place.GraspToPlace`): they never depend on G.
         self.grasps_to_place: dict[tuple[int, int], GraspToPlace] = {}
         self._facing: dict[tuple[str, float], np.ndarray] = {}
+        #: The samples the planar hand test meets at a heading, by heading, handedness,
+        #: avoidVol's labels and height (`clearance._facing`).
+        self.planar_objects: dict[tuple[float, int, frozenset[str], float], Facing] = {}
         self._stable: dict[str, np.ndarray] = {}
         #: Upright carries out of the shelf that found no path (`hand_in.FAILED_CARRIES`).
         self.failed_carries = 0

@@ -127,20 +127,21 @@ def hand_in(
     profile: PushGraspProfile,
     evolve: Callable[[], np.ndarray],
     pilots: Callable[[], Iterator[np.ndarray]] | None = None,
-    stop_clear: bool = False,
+    planar_clear: bool = False,
 ) -> HandIn | Failure:
     """The hand moves straight in, as low as the arm can hold it (`Arm.line_heights`), from
     ``line[0]`` to ``line[1]`` (hand_base positions) while the object's samples go through
     ``evolve()`` (nu_o, computed only once the arm's motion is known to be feasible).
     ``pilots()``, where given, yields some of nu_o's own poses, cheapest first (nothing once
     nu_o itself is at hand): each is tested against avoidVol before the next is computed, and
-    refuses the motion before nu_o is simulated. ``stop_clear``: the caller's planar test
-    found the hand clear of avoidVol where it stops (`clearance.stops_overlapping`)."""
+    refuses the motion before nu_o is simulated. ``planar_clear``: the caller's planar test
+    found the hand clear of avoidVol along the whole line (`clearance.lines_overlapping`)."""
     start_xy, end_xy = line
-    plane = ctx.surface.top_z + PUSH_HEIGHT
-    why, blocker = line_overlap(ctx, profile.pusher, line, heading, avoid, plane, stop_clear)
-    if blocker:  # first: what blocks the hand decides which objects a plan moves
-        return Failure(name, action, why, blocker)
+    if not planar_clear:
+        plane = ctx.surface.top_z + PUSH_HEIGHT
+        why, blocker = line_overlap(ctx, profile.pusher, line, heading, avoid, plane)
+        if blocker:  # first: what blocks the hand decides which objects a plan moves
+            return Failure(name, action, why, blocker)
     heights = arm.line_heights(start_xy, end_xy, heading)
     if not heights:
         return Failure(name, action, OUT_OF_REACH)

@@ -22,7 +22,7 @@ from clutter_gym.model.objects import Footprint
 from clutter_gym.model.reachability import PUSH_HEIGHT
 from clutter_gym.model.transforms import Frame2D, wrap_angle
 from planners.actions.arm import Arm
-from planners.actions.clearance import stops_overlapping
+from planners.actions.clearance import lines_overlapping
 from planners.actions.context import PlanningContext
 from planners.actions.goals import Goal, Retrieve
 from planners.actions.grasp_geometry import START_CLEARANCE
@@ -254,29 +254,18 @@ def _over_offsets(
         ctx.push_plans[(name, heading, aperture)] = pushes
     if pushes:  # one per lateral offset; none where no offset can capture every sample
         with ctx.stats.timed("clearance"):  # the planar test and what earlier ones found
-            early, clear, stops_clear = _before_ik(
-                ctx, name, avoid, action, heading, aperture, pushes
-            )
+            early, clear = _before_ik(ctx, name, avoid, action, heading, aperture, pushes)
     else:
-        early, clear, stops_clear = [Failure(name, action, MISSES_SAMPLES)], [], set()
+        early, clear = [Failure(name, action, MISSES_SAMPLES)], []
     masses = _belief_masses(ctx, name, clear)
     ranked = sorted(zip(clear, masses, strict=True), key=lambda pm: -pm[1])  # stable
     bar = ctx.settings.preferred_mass
 
     def tried(push: PlannedPush, mass: float) -> PushedOrFailure:
-        """`_push_at`, counted; a failure that names an object is remembered for its hand
-        pose (and given again, without IK, where that object is still avoided)."""
+        """`_push_at`, counted."""
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        blocked = _blocked_before(ctx, name, push, avoid.labels)
-        if blocked is not None:
-            return Failure(name, action, blocked.reason, blocked.blocker)
-        stop_clear = push.offset in stops_clear
-        outcome = _push_at(ctx, arm, name, avoid, action, push, mass, stop_clear)
-        if isinstance(outcome, Failure) and outcome.blocker:
-            hand = BlockedHand(outcome.reason, outcome.blocker, planar=False)
-            ctx.blocked_hands[_hand_key(name, push)] = hand
-        return outcome
+        return _push_at(ctx, arm, name, avoid, action, push, mass)
 
     for push, mass in (pm for pm in ranked if pm[1] >= bar):
         yield tried(push, mass)
@@ -297,36 +286,33 @@ def _before_ik(
     heading: float,
     aperture: float,
     pushes: list[PlannedPush | None],
-) -> tuple[list[Failure], list[PlannedPush], set[float]]:
+) -> tuple[list[Failure], list[PlannedPush]]:
     """The offsets that fail before any IK (the capture misses a sample, or the planar test
-    finds the hand on a neighbour where it stops, now or under an earlier avoidVol that
-    held it), and the pushes past them, each list in offset order; and the offsets whose
-    stop the planar test found clear here (`hand_in` then tests only the way in)."""
-    # Hand poses a named object blocked under an earlier avoidVol that holds it still: the
+    finds the hand on a neighbour where it stops or on its way in, now or under an earlier
+    avoidVol that held it), and the pushes past them, each list in offset order: the planar
+    test found every one of those clear (`hand_in` does not test them again)."""
+    # Hand motions a named object blocked under an earlier avoidVol that holds it still: the
     # planar tests behind such failures see that object alone.
     known = [None if p is None else _blocked_before(ctx, name, p, avoid.labels) for p in pushes]
     open_ = [p for p, k in zip(pushes, known, strict=True) if p is not None and k is None]
-    ends = np.array([p.end for p in open_]).reshape(-1, 2)
+    starts, ends = (np.array([getattr(p, end) for p in open_]) for end in ("start", "end"))
     z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
     pusher = push_grasp_profile(aperture).pusher
-    blockers = iter(stops_overlapping(ctx, pusher, ends, heading, avoid, z))
+    found = iter(lines_overlapping(ctx, pusher, starts, ends, heading, avoid, z))
     early: list[Failure] = []
     clear: list[PlannedPush] = []
-    stops_clear: set[float] = set()
     for push, blocked in zip(pushes, known, strict=True):
         if push is None:
             early.append(Failure(name, action, MISSES_SAMPLES))
-        elif blocked is not None and blocked.planar:
+        elif blocked is not None:
             early.append(Failure(name, action, blocked.reason, blocked.blocker))
-        elif blocked is None and (blocker := next(blockers)):
-            why = f"the hand overlaps {blocker} where it stops"
+        elif (why_blocker := next(found))[1]:
+            why, blocker = why_blocker
             early.append(Failure(name, action, why, blocker))
-            ctx.blocked_hands[_hand_key(name, push)] = BlockedHand(why, blocker, planar=True)
+            ctx.blocked_hands[_hand_key(name, push)] = BlockedHand(why, blocker)
         else:
             clear.append(push)
-            if blocked is None:
-                stops_clear.add(push.offset)
-    return early, clear, stops_clear
+    return early, clear
 
 
 def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
@@ -335,12 +321,10 @@ def _hand_key(name: str, push: PlannedPush) -> tuple[str, float, float, float]:
 
 @dataclass(frozen=True)
 class BlockedHand:
-    """Why a push-grasp's hand motion failed against one object: ``planar`` where the planar
-    test of its stop found it (before the belief mass and IK), else on the way there."""
+    """Why the planar test found a push-grasp's hand motion on one object (`_before_ik`)."""
 
     reason: str
     blocker: str
-    planar: bool
 
 
 def _blocked_before(
@@ -390,18 +374,17 @@ def _plan_pushes(
     starts = centres + back_off[:, None] * v
     in_hand = _in_hands(samples, starts, heading)
     inside, need = region.query(in_hand.reshape(-1, 3))
-    inside, need = inside.reshape(len(centres), -1), need.reshape(len(centres), -1)
-    plans: list[PlannedPush | None] = []
-    for k, offset in enumerate(offsets):
-        if not inside[k].all():
-            plans.append(None)
-            continue
-        distance = float(min(need[k].max() + region.push_margin, region.d_max))
-        end = starts[k] + distance * v
-        plans.append(
-            PlannedPush(heading, aperture, float(offset), starts[k], end, distance, in_hand[k])
+    captured = np.all(inside.reshape(len(centres), -1), axis=1)
+    distances = np.minimum(need.reshape(len(centres), -1).max(1) + region.push_margin, region.d_max)
+    ends = starts + distances[:, None] * v
+    return [
+        PlannedPush(
+            heading, aperture, float(offset), starts[k], ends[k], float(distances[k]), in_hand[k]
         )
-    return plans
+        if captured[k]
+        else None
+        for k, offset in enumerate(offsets)
+    ]
 
 
 def _in_hands(poses: np.ndarray, starts: np.ndarray, heading: float) -> np.ndarray:
@@ -538,10 +521,9 @@ def _push_at(
     action: str,
     push: PlannedPush,
     mass: float,
-    stop_clear: bool,
 ) -> tuple[HandIn, dict[str, float]] | Failure:
-    """The push's motion, nu_o and parameters, or why the arm cannot make it (``stop_clear``:
-    the planar test found the hand's stop clear of avoidVol)."""
+    """The push's motion, nu_o and parameters, or why the arm cannot make it (the planar test
+    of `_before_ik` found the hand's motion clear of avoidVol)."""
     nu_o = _PushEvolution(ctx, name, push)
     details = {
         "heading_deg": math.degrees(push.heading),
@@ -563,7 +545,7 @@ def _push_at(
         profile,
         nu_o.evolve,
         nu_o.pilots,
-        stop_clear=stop_clear,
+        planar_clear=True,
     )
     if isinstance(moved, Failure):
         return moved
