@@ -129,13 +129,11 @@ def pattern_system(
 
 
 @njit(cache=True)
-def complementary(
-    f: np.ndarray, u: np.ndarray, b_max: float, mu: float, pattern: np.ndarray
-) -> bool:
+def complementary(f: np.ndarray, u: np.ndarray, tol: float, mu: float, pattern: np.ndarray) -> bool:
     """Whether forces ``f`` and relative velocities ``u`` (normal, tangent per contact) meet
-    the pattern's conditions: a separating contact does not approach, a touching one pushes,
-    a sticking one stays in the friction cone, a sliding one slides along its force."""
-    tol = 1e-7 * (1.0 + np.abs(f).max() + b_max)
+    the pattern's conditions within ``tol``: a separating contact does not approach, a
+    touching one pushes, a sticking one stays in the friction cone, a sliding one slides
+    along its force."""
     for i in range(len(pattern)):
         mode = pattern[i]
         fn, ft, un, ut = f[2 * i], f[2 * i + 1], u[2 * i], u[2 * i + 1]
@@ -179,20 +177,23 @@ def lcp_solve(
     aw[2] /= c * c
     g = w.T @ aw
     b_max = np.abs(b).max()
-    k = np.empty((size, size))
-    h = np.empty(size)
-    f = np.empty(size)
+    k, h, f, u = np.empty((size, size)), np.empty(size), np.empty(size), np.empty(size)
     work = np.empty((size, size + 1))
     for p in range(len(patterns)):
         pattern_system(g, b, mu, patterns[p], k, h)
         if not lu_solve(k, h, f, work):
             f[:] = np.linalg.pinv(k) @ h
-        if complementary(f, g @ f - b, b_max, mu, patterns[p]):
+        f_max = 0.0
+        for i in range(size):  # u = g f - b and the largest force, without temporaries
+            acc, f_max = 0.0, max(f_max, abs(f[i]))
+            for j in range(size):
+                acc += g[i, j] * f[j]
+            u[i] = acc - b[i]
+        if complementary(f, u, 1e-7 * (1.0 + f_max + b_max), mu, patterns[p]):
             twist[:] = aw @ f
             forces[:] = f
             return True
-    twist[:] = 0.0
-    forces[:] = 0.0
+    twist[:], forces[:] = 0.0, 0.0
     return False
 
 
