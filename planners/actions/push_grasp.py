@@ -295,7 +295,7 @@ def _before_ik(
     # planar tests behind such failures see that object alone.
     known = [None if p is None else _blocked_before(ctx, name, p, avoid.labels) for p in pushes]
     open_ = [p for p, k in zip(pushes, known, strict=True) if p is not None and k is None]
-    starts, ends = (np.array([getattr(p, end) for p in open_]) for end in ("start", "end"))
+    starts, ends = np.array([p.start for p in open_]), np.array([p.end for p in open_])
     z = ctx.surface.top_z + PUSH_HEIGHT  # the lowest: the most objects reach the hand there
     pusher = push_grasp_profile(aperture).pusher
     found = iter(lines_overlapping(ctx, pusher, starts, ends, heading, avoid, z))
