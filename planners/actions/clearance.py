@@ -98,14 +98,14 @@ def lines_overlapping(
     """Why the hand moving straight from each of ``starts`` to ``ends`` (M, 2; hand_base
     positions) at ``heading`` cannot be collision-free, and the object it overlaps where it
     stops or on its way; ("", "") where it can. A longer push passes through every pose of a
-    shorter one, so this also rules out pushing further. One pass per object for every stop,
-    then one per object and swept length for the ways in of the motions whose stop is clear:
-    the push-grasp search asks this for every lateral offset of a direction and aperture."""
+    shorter one, so this also rules out pushing further. One compiled pass over every stop,
+    then one per swept length over the ways in of the motions whose stop is clear: the
+    push-grasp search asks this for every lateral offset of a direction and aperture."""
     with ctx.stats.timed("clearance"):
         starts, ends = (np.asarray(a, dtype=float).reshape(-1, 2) for a in (starts, ends))
         found = [("", "")] * len(ends)
         objects = _facing(ctx, heading, 1, avoid, z)
-        if not objects[0]:
+        if not objects[0]:  # no object the hand can meet at this height
             return found
         ways_in: dict[int, list[int]] = {}  # swept steps -> motions whose stop is clear
         lengths = (ends - starts) @ np.array([math.cos(heading), math.sin(heading)])
