@@ -44,6 +44,7 @@ from planners.uncertainty import ObjectBelief, sample_poses
 
 # The module, not the `sweep` action the package re-exports under the same name.
 sweep_action = importlib.import_module("planners.actions.sweep")
+sweep_evolution = importlib.import_module("planners.actions.sweep_evolution")
 
 
 STRAIGHT = push_grasp_profile(STRAIGHT_APERTURE)
@@ -104,7 +105,7 @@ def test_a_sweep_is_simulated_once_for_every_goal(monkeypatch: pytest.MonkeyPatc
     far = Volume.of_box("ngr", centre, (0.3, 0.3, 0.2), 0.0)
 
     def sweep_out(context: PlanningContext, ngr: Volume) -> tuple[float, np.ndarray] | None:
-        return sweep_action._sweep_until(
+        return sweep_evolution.sweep_until(
             context, "box", AwayFrom(ngr), plan.region, frame, in_frame, 0.55
         )
 
@@ -137,8 +138,8 @@ def test_a_sweep_the_detection_takes_into_avoid_is_refused_before_all_samples_ru
     frame, in_frame = sweep_action._frame_at(ctx, "box", plan, 0.5)
     ngr = Volume.of_box("ngr", np.array([0.75, -0.20, TABLE.top_z + 0.1]), (0.2, 0.2, 0.2), 0.0)
     goal = AwayFrom(ngr)
-    pilot = sweep_action._sweep_until(
-        ctx, "box", goal, plan.region, frame, in_frame[:1], 0.55, sweep_action.PILOT_STEP
+    pilot = sweep_evolution.sweep_until(
+        ctx, "box", goal, plan.region, frame, in_frame[:1], 0.55, sweep_evolution.PILOT_STEP
     )
     assert pilot is not None
     # A post on the detection's path, halfway along its sweep.
@@ -149,19 +150,19 @@ def test_a_sweep_the_detection_takes_into_avoid_is_refused_before_all_samples_ru
     )
     assert Volume.of_object("box", ctx.beliefs["box"].spec, path, TABLE.top_z).intersects(wall)
     simulated = []
-    until = sweep_action._sweep_until
+    until = sweep_evolution.sweep_until
     monkeypatch.setattr(
-        sweep_action,
-        "_sweep_until",
+        sweep_evolution,
+        "sweep_until",
         lambda c, n, g, r, f, samples, *a, **k: (
             simulated.append(len(samples)) or until(c, n, g, r, f, samples, *a, **k)
         ),
     )
-    refused = sweep_action._simulate(ctx, "box", goal, plan.region, frame, in_frame, wall)
-    assert refused == sweep_action.PILOT_INTO_AVOID
+    refused = sweep_evolution.simulate(ctx, "box", goal, plan.region, frame, in_frame, wall)
+    assert refused == sweep_evolution.PILOT_INTO_AVOID
     assert simulated == [1]
     simulated.clear()
-    swept = sweep_action._simulate(ctx, "box", goal, plan.region, frame, in_frame, Volume())
+    swept = sweep_evolution.simulate(ctx, "box", goal, plan.region, frame, in_frame, Volume())
     assert not isinstance(swept, str)
     assert simulated == [1, len(in_frame)]
 

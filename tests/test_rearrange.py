@@ -167,8 +167,9 @@ def test_fig3_pushes_the_dumbbell_away_then_the_box_into_its_space(
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="planner: the large box must leave the pickup's NGR by 0.37-0.55 m and no sweep's "
-    "capture region holds it that far (issue 19); pick-and-place finds no way past the box",
+    reason="planner: the large box must leave the pickup's NGR by 0.37-0.55 m, further than one "
+    "sweep stroke holds it; in two strokes the pushing planner moves the pop-tarts and the juice "
+    "too, or runs out of the budget (issue 19); pick-and-place finds no way past the box",
 )
 def test_fig15_pushing_sweeps_the_box_where_pick_and_place_moves_two_objects() -> None:
     """Fig. 15: "The pushing planner sweeps the large box blocking the way. The pick-and-place

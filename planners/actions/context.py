@@ -14,7 +14,7 @@ from clutter_gym.model.collision import Volume, objects_overlap
 from clutter_gym.model.objects import Footprint
 from clutter_gym.model.transforms import Frame2D
 from clutter_gym.model.world import Region, Surface
-from planners.actions.results import FailureLog
+from planners.actions.results import Failure, FailureLog
 from planners.actions.settings import Budget, PlannerSettings, PlanStats
 from planners.capture import CaptureRegion, SweepRegion, push_grasp_region, sweep_region
 from planners.uncertainty import ObjectBelief
@@ -23,7 +23,8 @@ if TYPE_CHECKING:
     from planners.actions.clearance import Facing
     from planners.actions.pick_and_place import GraspToPlace
     from planners.actions.push_grasp import BlockedHand, HandInSearch, PlannedPush
-    from planners.actions.sweep import SweepEvolution
+    from planners.actions.sweep import FirstStroke
+    from planners.actions.sweep_evolution import SweepEvolution
 
 
 STABLE_MARGIN = 0.01  # m: in the shelf, the footprint stays this far inside the walls
@@ -65,6 +66,9 @@ class PlanningContext:
         self._with_own: dict[tuple[int, str], tuple[Volume, Volume]] = {}
         #: Sweep evolutions simulated so far, by object and sweep frame (`SweepEvolution`).
         self.sweeps: dict[tuple[Hashable, ...], SweepEvolution] = {}
+        #: First strokes of sweeps in two strokes by object, direction, placement and
+        #: avoidVol (kept with it), or why there is none (`sweep._two_strokes_at`).
+        self.first_strokes: dict[tuple[Hashable, ...], tuple[Volume, FirstStroke | Failure]] = {}
         #: Push-grasp evolutions nu_o (world poses) by object, heading, aperture and offset:
         #: a push is the same under every parent candidate that asks to move the object.
         self.pushes: dict[tuple[str, float, float, float], np.ndarray] = {}

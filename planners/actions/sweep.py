@@ -28,18 +28,19 @@ from planners.actions.grasp_geometry import (
 from planners.actions.hand_in import NU_INTO_AVOID, NU_SPACING, OUT_OF_REACH
 from planners.actions.heuristics import sweep_directions
 from planners.actions.results import ActionResult, Failure, Outcome
-from planners.capture import SweepRegion, extreme_parameters
+from planners.actions.sweep_evolution import (
+    PILOT_STEP,
+    evolved,
+    first_guess,
+    not_far_enough,
+    simulate,
+    sweep_until,
+)
+from planners.capture import SweepRegion
 from planners.hand2d import closure_for_aperture, sweep_profile
 
 ACTION = "sweep"
-NU_STEP = 0.005  # m: simulation step of nu_o (regions are built at 1 mm; nu_o is a volume)
-PILOT_STEP = 0.01  # m: simulation step of the one-sample pilot of a sweep
-SWEEP_CHUNK = 0.06  # m of sweep simulated before checking whether the object has reached G
 SWEEP_RETREAT = 0.02  # m the hand backs away along the sweep before rising
-_NOT_FAR_ENOUGH = "no sweep up to {} m ends {}"
-PILOT_INTO_AVOID = "the detected pose sweeps into avoidVol"
-EXACT_STRIDE = 4
-"""Steps of nu_o between the first exact goal tests of a sweep's first guess."""
 
 DIRECTION_REFINE = 2
 """In an enclosed surface the sweep directions are searched again at this fraction of the
@@ -50,21 +51,35 @@ fingertip, most central first, then the half-steps between the central ones: how
 region holds an object changes steeply with the placement (a large box swept square to its face
 in a Figs. 3-5 variant: every sample 0.27 m at 0.5, 0.72 m at 0.6, where the arm has no IK at the
 sweep's start)."""
+FIRST_STROKE_MIN = 0.06
+"""m: the shortest first stroke of a sweep in two strokes (`_two_strokes_at`); a shorter one
+barely moves the object before the hand is placed against it again."""
+STRAIGHT_INTO_AVOID = "the detected pose's straight way out sweeps into avoidVol"
+STROKE_BACK = 0.03
+"""m the hand backs away from the object between the two strokes, before it moves along the
+object to where the second stroke starts."""
 
 
 def sweep(
     ctx: PlanningContext, arm: Arm, name: str, goal: Goal, avoid: Volume
 ) -> Iterator[Outcome]:
-    """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first."""
+    """Sweeps of ``name`` out of the NGR with the outer side of the hand, best first: in one
+    stroke in every direction, then, only if the search goes on, in two strokes where the
+    sweep region lets go of the object before it is out (`_two_strokes_at`)."""
     if not isinstance(goal, AwayFrom):
         return
     if not ctx.beliefs[name].spec.pushable:
         yield Failure(name, ACTION, "tips over when pushed")
         return
+    guesses: dict[tuple[float, int], float | None] = {}  # rigid shifts into G, by direction
     for angle, handedness in _directions(ctx, arm, name):
         ctx.check_budget()
         ctx.stats.actions_tried += 1
-        yield from _sweep_at(ctx, arm, name, goal, avoid, angle, handedness)
+        yield from _sweep_at(ctx, arm, name, goal, avoid, angle, handedness, guesses)
+    for (angle, handedness), guess in guesses.items():
+        ctx.check_budget()
+        ctx.stats.actions_tried += 1
+        yield from _two_strokes_at(ctx, arm, name, goal, avoid, angle, handedness, guess)
 
 
 def _directions(ctx: PlanningContext, arm: Arm, name: str) -> Iterator[tuple[float, int]]:
@@ -100,6 +115,7 @@ class _Sweep:
     local: np.ndarray  # the samples in the frame at the centre
     x0: float  # where the hand's side starts, in that frame
     span: tuple[float, float]  # the hand's side, from the wrist end to the fingertip
+    samples: np.ndarray  # world poses (M, 3): U(o), or where a first stroke left them
 
     @property
     def frame(self) -> Frame2D:
@@ -114,15 +130,19 @@ def _sweep_at(
     avoid: Volume,
     angle: float,
     handedness: int,
+    guesses: dict[tuple[float, int], float | None],
 ) -> Iterator[Outcome]:
-    """At most one sweep in this direction (and the failures on the way)."""
+    """At most one sweep in this direction (and the failures on the way); the rigid shift's
+    guess of how far joins ``guesses``."""
     with ctx.stats.timed("capture"):  # the samples in the sweep's frame
         plan = _plan_sweep(ctx, name, angle, handedness)
-    guess = _first_guess(ctx, name, goal, plan)
+    guess = guesses[(angle, handedness)] = first_guess(
+        ctx, name, goal, plan.samples, plan.frame.x_axis
+    )
     if guess is None:
         guess = _pilot_guess(ctx, name, goal, plan)
     if guess is None:
-        yield Failure(name, ACTION, _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe()))
+        yield Failure(name, ACTION, not_far_enough(ctx, goal))
         return
     hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
     free = _clearances(ctx, arm, name, avoid, hand)
@@ -134,9 +154,9 @@ def _sweep_at(
         if isinstance(placement, Failure):
             yield placement
             continue
-        frame, in_frame, placed = placement  # the plan at the placement's height
+        frame, in_frame, placed, _ = placement  # the plan at the placement's height
         with ctx.stats.timed("nu"):
-            swept = _simulate(ctx, name, goal, placed.region, frame, in_frame, avoid)
+            swept = simulate(ctx, name, goal, placed.region, frame, in_frame, avoid)
         if isinstance(swept, str):
             yield Failure(name, ACTION, swept)
             continue
@@ -156,6 +176,183 @@ def _sweep_at(
             return
 
 
+@dataclass(frozen=True)
+class FirstStroke:
+    """A sweep's first stroke: the arm's path and nu_o (stages, P*N, 3), ending with the
+    hand_base at ``end_xy`` at the plan's height; avoidVol with the object where it may have
+    been left (``with_object``), and the hand backed away from it (`STROKE_BACK`) or None."""
+
+    plan: _Sweep
+    path: np.ndarray
+    length: float
+    end_xy: np.ndarray
+    nu: np.ndarray
+    with_object: Volume
+    back: np.ndarray | None
+
+
+def _two_strokes_at(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: AwayFrom,
+    avoid: Volume,
+    angle: float,
+    handedness: int,
+    guess: float | None,
+) -> Iterator[Outcome]:
+    """At most one sweep in two strokes in this direction, for the placements along the hand
+    where the sweep region lets go of a sample before a rigid shift would reach G (``guess``;
+    a large box turning against the hand slides along it: 0.26 m at the middle of the hand,
+    where 0.5 m is needed, Fig. 15): the first stroke goes as far as the region holds every
+    sample, the hand backs away and is placed against the object again where that stroke may
+    have left it (`_second_stroke`). Each stroke is a sweep the region was validated for: the
+    object at rest in it, the hand starting clear of it; the evolution goes on under each
+    sample's own pushing parameters (the world's friction does not change between strokes)."""
+    if guess is None:
+        yield Failure(name, ACTION, not_far_enough(ctx, goal))
+        return
+    with ctx.stats.timed("capture"):
+        plan = _plan_sweep(ctx, name, angle, handedness)
+    # The detected pose shifted straight out: where it meets avoidVol, the sweep would carry
+    # it there too (a cheap stand-in for the evolution, not a proof: the object may turn).
+    straight = np.repeat(plan.samples[:1], math.ceil(guess / NU_SPACING) + 1, axis=0)
+    straight[:, :2] += np.arange(len(straight))[:, None] * NU_SPACING * plan.frame.x_axis
+    with ctx.stats.timed("volumes"):
+        if ctx.sweeps_into(name, straight, avoid):
+            yield Failure(name, ACTION, STRAIGHT_INTO_AVOID)
+            return
+    hand = HandCommand(0.0, closure_for_aperture(plan.region.aperture))
+    free = _clearances(ctx, arm, name, avoid, hand)
+    for fraction in SWEEP_PLACEMENTS:
+        with ctx.stats.timed("capture"):
+            _, in_frame = _frame_at(ctx, name, plan, fraction)
+            hold = plan.region.holds_until(in_frame)
+        if hold >= guess:
+            continue  # one stroke holds it that far: the sweeps in one stroke tried this
+        length = math.floor(hold / NU_SPACING + 1e-9) * NU_SPACING
+        if length < FIRST_STROKE_MIN:
+            yield Failure(name, ACTION, "the sweep capture region holds no first stroke")
+            continue
+        # The first stroke never depends on G: one per placement, avoidVol and plan.
+        key = (name, angle, handedness, fraction, id(avoid))
+        if key not in ctx.first_strokes:  # avoidVol is kept with it: its id stays its own
+            stroke = _first_stroke(ctx, arm, name, plan, fraction, length, avoid, hand, free)
+            ctx.first_strokes[key] = (avoid, stroke)
+        first = ctx.first_strokes[key][1]
+        result = (
+            first
+            if isinstance(first, Failure)
+            else _second_stroke(ctx, arm, name, goal, avoid, hand, first)
+        )
+        yield result
+        if not isinstance(result, Failure):
+            return
+
+
+def _first_stroke(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    plan: _Sweep,
+    fraction: float,
+    length: float,
+    avoid: Volume,
+    hand: HandCommand,
+    free: tuple[Free, Free],
+) -> FirstStroke | Failure:
+    """The first stroke of ``length`` at this placement (`_placement`'s checks), clear of
+    avoidVol, with its nu_o (the detected pose's own evolution tested against avoidVol first,
+    as `simulate` does)."""
+    placement = _placement(ctx, arm, name, plan, fraction, length, avoid, free)
+    if isinstance(placement, Failure):
+        return placement
+    frame, in_frame, placed, path = placement
+    end_xy = np.asarray(frame.origin) + length * frame.x_axis
+    if not arm.motion_free((Segment("sweep", path, hand),), avoid):
+        return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
+    for rows in (in_frame[:1], in_frame):
+        with ctx.stats.timed("nu"):
+            nu = evolved(ctx, name, placed.region, frame, rows, length)
+        with ctx.stats.timed("volumes"):
+            if ctx.sweeps_into(name, nu, avoid):
+                return Failure(name, ACTION, NU_INTO_AVOID)
+    spec = ctx.beliefs[name].spec
+    left = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
+    back_xy = end_xy - STROKE_BACK * frame.x_axis
+    back = arm.straight(
+        path[-1], hand_pose(back_xy, plan.approach, placed.z), arm.free_check(left, hand, True)
+    )
+    return FirstStroke(placed, path, length, end_xy, nu, left, back)
+
+
+def _second_stroke(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    goal: AwayFrom,
+    avoid: Volume,
+    hand: HandCommand,
+    first: FirstStroke,
+) -> Outcome:
+    """The rest of a sweep in two strokes: the hand backs away `STROKE_BACK` along the sweep,
+    moves straight to the start of a second sweep of the samples where the first stroke may
+    have left them (`_sweep_at`'s placements, its checks with that object in place of U(o)),
+    and sweeps on until G; the whole motion, retreat and rise as any sweep's (`_finished`)."""
+    back = first.back
+    if back is None:
+        return Failure(name, ACTION, "the hand cannot back away between the strokes")
+    rest = first.nu[-1]  # (P*N, 3): each sample under each parameter set
+    with ctx.stats.timed("capture"):
+        plan = _plan_sweep(ctx, name, first.plan.angle, first.plan.handedness, rest)
+    guess = first_guess(ctx, name, goal, plan.samples, plan.frame.x_axis)
+    if guess is None:
+        return Failure(name, ACTION, "no second stroke ends " + goal.describe())
+    free = (arm.free_check(avoid, hand), arm.free_check(first.with_object, hand))
+    rows = len(rest) // len(ctx.beliefs[name].samples)
+    why = "no second stroke"
+    for fraction in SWEEP_PLACEMENTS:
+        placement = _placement(ctx, arm, name, plan, fraction, guess, avoid, free)
+        if isinstance(placement, Failure):
+            why = placement.reason
+            continue
+        frame, in_frame, at_z, _ = placement
+        start_xy = np.asarray(frame.origin)
+        with ctx.stats.timed("nu"):
+            swept = simulate(
+                ctx, name, goal, at_z.region, frame, in_frame.reshape(rows, -1, 3), avoid
+            )
+        if isinstance(swept, str):
+            why = swept
+            continue
+        distance, nu = swept
+        end_xy = start_xy + distance * frame.x_axis
+        shift = arm.straight(back[-1], hand_pose(start_xy, plan.approach, at_z.z), free[1])
+        stroke = (
+            None
+            if shift is None
+            else arm.straight(shift[-1], hand_pose(end_xy, plan.approach, at_z.z), free[0])
+        )
+        if shift is None or stroke is None:
+            why = "the hand cannot move from the first stroke through the second"
+            continue
+        motion = (
+            Segment("sweep", first.path, hand),
+            Segment("retreat", back, hand),
+            Segment("shift", shift, hand),
+            Segment("sweep", stroke, hand),
+        )
+        details = {
+            "direction_deg": math.degrees(plan.angle),
+            "side": float(plan.handedness),
+            "sweep_m": first.length + distance,
+            "first_stroke_m": first.length,
+        }
+        total = np.concatenate([first.nu, nu[1:]])
+        return _finished(ctx, arm, name, avoid, at_z, end_xy, hand, motion, total, details)
+    return Failure(name, ACTION, why)
+
+
 def _clearances(
     ctx: PlanningContext, arm: Arm, name: str, avoid: Volume, hand: HandCommand
 ) -> tuple[Free, Free]:
@@ -166,13 +363,20 @@ def _clearances(
     return arm.free_check(avoid, hand), arm.free_check(ctx.with_own_samples(avoid, name), hand)
 
 
-def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) -> _Sweep:
-    belief = ctx.beliefs[name]
-    spec = belief.spec
+def _plan_sweep(
+    ctx: PlanningContext,
+    name: str,
+    angle: float,
+    handedness: int,
+    samples: np.ndarray | None = None,
+) -> _Sweep:
+    """A sweep of the object's ``samples`` (default U(o)) in this direction."""
+    spec = ctx.beliefs[name].spec
+    samples = ctx.beliefs[name].samples if samples is None else samples
     region = ctx.sweep_region(spec.footprint)
     profile = sweep_profile(region.aperture)
-    centre = (float(belief.samples[0, 0]), float(belief.samples[0, 1]))
-    local = Frame2D(centre, angle, handedness).to_frame(belief.samples)
+    centre = (float(samples[0, 0]), float(samples[0, 1]))
+    local = Frame2D(centre, angle, handedness).to_frame(samples)
     x_front = profile.pusher.bounds[1]
     return _Sweep(
         region=region,
@@ -184,40 +388,8 @@ def _plan_sweep(ctx: PlanningContext, name: str, angle: float, handedness: int) 
         local=local,
         x0=near_edge(spec.footprint, local) - x_front - START_CLEARANCE,
         span=profile.span,
+        samples=samples,
     )
-
-
-def _first_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
-    """A rigid translation along the sweep is a cheap first guess of how far to sweep (the
-    simulated evolution decides); it does not depend on where along the hand. The top-view
-    test of the axis-aligned bounds is tried first, for every distance at once; when no
-    distance passes it (a turned box's
-    bounds are pessimistic next to the NGR), the exact test decides, every `EXACT_STRIDE`
-    steps first and then at the steps just short of the first distance that passes: a failing
-    exact test costs milliseconds (a large NGR), and most distances fail."""
-    samples = ctx.beliefs[name].samples
-    direction = plan.frame.x_axis
-    gap = START_CLEARANCE
-    shifts = np.arange(NU_SPACING, ctx.settings.sweep_max - gap + 1e-9, NU_SPACING)
-
-    def accepts(d: float) -> bool:
-        return goal.accepts(ctx, name, translated(samples, d * direction), False)
-
-    moved = np.repeat(samples[None], len(shifts), axis=0)
-    moved[:, :, :2] += (shifts[:, None] * direction)[:, None, :]
-    clear = np.flatnonzero(goal.clearly_accepts_each(ctx, name, moved))
-    if len(clear):
-        return float(gap + shifts[clear[0]])
-    coarse = list(range(EXACT_STRIDE - 1, len(shifts), EXACT_STRIDE))
-    if coarse[-1] != len(shifts) - 1:
-        coarse.append(len(shifts) - 1)
-    previous = -1
-    for k in coarse:
-        if accepts(shifts[k]):
-            shorter = (j for j in range(previous + 1, k) if accepts(shifts[j]))
-            return float(gap + shifts[next(shorter, k)])
-        previous = k
-    return None
 
 
 def _pilot_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) -> float | None:
@@ -229,7 +401,7 @@ def _pilot_guess(ctx: PlanningContext, name: str, goal: AwayFrom, plan: _Sweep) 
         frame, in_frame = _frame_at(ctx, name, plan, SWEEP_PLACEMENTS[0])
         limit = min(ctx.settings.sweep_max, plan.region.holds_until(in_frame[:1]))
     with ctx.stats.timed("nu"):
-        pilot = _sweep_until(ctx, name, goal, plan.region, frame, in_frame[:1], limit, PILOT_STEP)
+        pilot = sweep_until(ctx, name, goal, plan.region, frame, in_frame[:1], limit, PILOT_STEP)
     return None if pilot is None else pilot[0]
 
 
@@ -242,11 +414,11 @@ def _placement(
     guess: float,
     avoid: Volume,
     free: tuple[Free, Free],
-) -> tuple[Frame2D, np.ndarray, _Sweep] | Failure:
+) -> tuple[Frame2D, np.ndarray, _Sweep, np.ndarray] | Failure:
     """The sweep frame with the object's centre at ``fraction`` along the hand's side, if the
     capture region holds every sample and the arm reaches the start (clear of the object too:
     `_clearances`) and the guessed end; the sweep at the lowest height the arm holds the hand
-    there (`Arm.push_height`)."""
+    there (`Arm.push_height`), and its straight line to the guessed end."""
     with ctx.stats.timed("capture"):
         frame, in_frame = _frame_at(ctx, name, plan, fraction)
         captured = bool(plan.region.query(in_frame, float(guess))[0].all())
@@ -270,7 +442,7 @@ def _placement(
         at_z = replace(plan, z=z)
         line = _straight_sweep(arm, at_z, start_xy, end_xy, free)
         if not isinstance(line, str):
-            return frame, in_frame, at_z
+            return frame, in_frame, at_z, line
         why = line
     return Failure(name, ACTION, why)
 
@@ -292,7 +464,7 @@ def _frame_at(
     y0 = plan.local[:, 1].mean() - (lo + fraction * (hi - lo))
     origin = plan.frame.to_world(np.array([plan.x0, y0, 0.0]))
     frame = Frame2D((float(origin[0]), float(origin[1])), plan.angle, plan.handedness)
-    return frame, frame.to_frame(ctx.beliefs[name].samples)
+    return frame, frame.to_frame(plan.samples)
 
 
 def sweep_with(
@@ -321,42 +493,6 @@ def sweep_with(
     return _sweep_motion(ctx, arm, name, avoid, plan, frame, hand, free, distance, nu)
 
 
-def _simulate(
-    ctx: PlanningContext,
-    name: str,
-    goal: AwayFrom,
-    region: SweepRegion,
-    frame: Frame2D,
-    in_frame: np.ndarray,
-    avoid: Volume,
-) -> tuple[float, np.ndarray] | str:
-    """How far to sweep and nu_o, or why not: a pilot with the detected pose alone (a
-    thirtieth of the work) says whether and roughly where the sweep reaches G, and whether the
-    detected pose already sweeps into avoidVol (nu_o holds its path, so the sweep would fail
-    there after simulating every sample); only then are all samples simulated, tested for G
-    from a chunk before there on, as far as the sweep may go (the samples spread as they turn,
-    and the last of them may need several chunks more)."""
-    # No sweep longer than the region holds every sample can pass: simulate no further.
-    limit = min(ctx.settings.sweep_max, region.holds_until(in_frame))
-    not_far_enough = _NOT_FAR_ENOUGH.format(ctx.settings.sweep_max, goal.describe())
-    pilot = _sweep_until(ctx, name, goal, region, frame, in_frame[:1], limit, PILOT_STEP)
-    if pilot is None:
-        return not_far_enough
-    if ctx.sweeps_into(name, pilot[1], avoid):
-        return PILOT_INTO_AVOID
-    swept = _sweep_until(
-        ctx,
-        name,
-        goal,
-        region,
-        frame,
-        in_frame,
-        limit,
-        check_from=pilot[0] - SWEEP_CHUNK,
-    )
-    return not_far_enough if swept is None else swept
-
-
 def _sweep_motion(
     ctx: PlanningContext,
     arm: Arm,
@@ -371,40 +507,57 @@ def _sweep_motion(
 ) -> Outcome:
     """The arm's sweep, retreat and rise, checked against avoidVol and the placed object
     (``free``: `_clearances`)."""
-    spec = ctx.beliefs[name].spec
     start_xy = np.asarray(frame.origin)
     end_xy = start_xy + distance * frame.x_axis
     path = _straight_sweep(arm, plan, start_xy, end_xy, free)
     if isinstance(path, str):
         return Failure(name, ACTION, path)
-    q_end = path[-1]
-    motion = Segment("sweep", path, hand)
-    if not arm.motion_free((motion,), avoid):
+    details = {
+        "direction_deg": math.degrees(plan.angle),
+        "side": float(plan.handedness),
+        "sweep_m": distance,
+    }
+    motion = (Segment("sweep", path, hand),)
+    return _finished(ctx, arm, name, avoid, plan, end_xy, hand, motion, nu, details)
+
+
+def _finished(
+    ctx: PlanningContext,
+    arm: Arm,
+    name: str,
+    avoid: Volume,
+    plan: _Sweep,
+    end_xy: np.ndarray,
+    hand: HandCommand,
+    motion: tuple[Segment, ...],
+    nu: np.ndarray,
+    details: dict[str, float],
+) -> Outcome:
+    """The sweep's ``motion`` (ending with the hand_base at ``end_xy`` at the plan's height)
+    and nu_o checked against avoidVol, then the retreat along the sweep and the rise, clear of
+    the object where it was left."""
+    spec = ctx.beliefs[name].spec
+    if not arm.motion_free(motion, avoid):
         return Failure(name, ACTION, "the arm hits avoidVol during the sweep")
     with ctx.stats.timed("volumes"):
         if ctx.sweeps_into(name, nu, avoid):
             return Failure(name, ACTION, NU_INTO_AVOID)
     placed = avoid + Volume.of_object(name, spec, nu[-1], ctx.surface.top_z)
     clear = arm.free_check(placed, hand, exact=True)
-    back_xy = end_xy - SWEEP_RETREAT * frame.x_axis
-    retreat = arm.straight(q_end, hand_pose(back_xy, plan.approach, plan.z), clear)
+    back_xy = end_xy - SWEEP_RETREAT * plan.frame.x_axis
+    retreat = arm.straight(motion[-1].path[-1], hand_pose(back_xy, plan.approach, plan.z), clear)
     rise = (
         None
         if retreat is None
         else arm.straight(
             retreat[-1],
             hand_pose(back_xy, plan.approach, rise_height(ctx.surface.top_z, spec.height, plan.z)),
-            arm.free_check(placed, hand, exact=True),
+            clear,
         )
     )
     if retreat is None or rise is None:
         return Failure(name, ACTION, "no collision-free retreat after the sweep")
-    details = {
-        "direction_deg": math.degrees(plan.angle),
-        "side": float(plan.handedness),
-        "sweep_m": distance,
-    }
-    segments = (motion, Segment("retreat", retreat, hand), Segment("rise", rise, hand))
+    segments = (*motion, Segment("retreat", retreat, hand), Segment("rise", rise, hand))
     return ActionResult(ACTION, name, Trajectory(segments), nu, False, details)
 
 
@@ -426,103 +579,3 @@ def _straight_sweep(
         return "no collision-free IK solution at the end of the sweep"
     path = arm.line(q_end, start, end, clear, at_start)
     return "the straight sweep is out of reach or hits avoidVol" if path is None else path
-
-
-def _reached(
-    ctx: PlanningContext,
-    name: str,
-    goal: Goal,
-    region: SweepRegion,
-    in_frame: np.ndarray,
-    distance: float,
-    final: np.ndarray,
-) -> bool:
-    """A sweep of ``distance`` keeps every sample and leaves all of nu_o[1] in G."""
-    inside = region.query(in_frame, distance)[0].all()
-    return bool(inside) and goal.accepts(ctx, name, final, False)
-
-
-@dataclass
-class SweepEvolution:
-    """A sweep's simulated nu_o so far, chunk by chunk. The evolution depends on the object's
-    samples, the sweep's frame and the pushing parameters, not on the goal G (only where it
-    stops does), so every parent candidate of a plan that asks for the same sweep reuses it
-    (`PlanningContext.sweeps`) and only runs its own stop test."""
-
-    chunks: list[tuple[np.ndarray, np.ndarray]]  # (distances (k + 1,), world (k + 1, P, N, 3))
-    current: np.ndarray  # hand-frame poses where the last chunk ends
-    advanced: float  # m simulated
-
-    def chunk(
-        self,
-        i: int,
-        region: SweepRegion,
-        frame: Frame2D,
-        step: float,
-        limit: float,
-        chosen: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Chunk ``i`` of the sweep, simulated only the first time anyone asks for it."""
-        while len(self.chunks) <= i:
-            d = min(SWEEP_CHUNK, limit - self.advanced)
-            k = max(1, math.ceil(d / NU_SPACING))
-            nu_hand = region.evolve(self.current, d, k, step, chosen)
-            distances = self.advanced + np.linspace(0.0, d, k + 1)
-            self.chunks.append((distances, frame.moving_to_world(nu_hand, distances)))
-            self.current = nu_hand[-1]
-            self.advanced += d
-        return self.chunks[i]
-
-
-def _sweep_until(
-    ctx: PlanningContext,
-    name: str,
-    goal: Goal,
-    region: SweepRegion,
-    frame: Frame2D,
-    in_frame: np.ndarray,
-    limit: float,
-    step: float = NU_STEP,
-    check_from: float = 0.0,
-) -> tuple[float, np.ndarray] | None:
-    """The shortest sweep (to NU_SPACING) whose every evolved sample ends in G, with nu_o.
-
-    The evolution is simulated a chunk at a time and stops as soon as G is reached: sweeping a
-    box under every (mu_c, c) is the planner's most expensive computation, so the chunks are
-    kept (`SweepEvolution`) for the next goal that asks for the same sweep. G is tested from
-    ``check_from`` on (a pilot run tells roughly where it is reached)."""
-    chosen = extreme_parameters(region.mus, region.cs)
-    key = (name, frame.origin, frame.angle, frame.handedness, step, len(in_frame))
-    evolution = ctx.sweeps.get(key)
-    if evolution is None:
-        evolution = ctx.sweeps[key] = SweepEvolution([], in_frame, 0.0)
-    stages = [frame.moving_to_world(np.tile(in_frame, (len(chosen), 1, 1))[None], np.zeros(1))]
-    hold = region.holds_until(in_frame)
-    i = 0
-    while i < len(evolution.chunks) or evolution.advanced < limit - 1e-9:
-        ctx.check_budget()
-        distances, world = evolution.chunk(i, region, frame, step, limit, chosen)
-        i += 1
-        # A chunk kept from a longer sweep may run past this one's limit.
-        k = int(np.searchsorted(distances, limit + 1e-9)) - 1
-        if k < 1:
-            break
-        if distances[k] >= check_from:
-
-            def reached(j: int, d: np.ndarray = distances, w: np.ndarray = world) -> bool:
-                return _reached(ctx, name, goal, region, in_frame, float(d[j]), w[j])
-
-            held = bool(distances[k] < hold)
-            if not held or reached(k):
-                # G is reached by the chunk's end, or the region lets go of a sample by then and
-                # holds none longer: the sweep is the chunk's first stage that reaches G (the
-                # last stage only while it is held, and then it is known to).
-                last = k if held else k - 1
-                j = next((j for j in range(1, last + 1) if j == k or reached(j)), None)
-                if j is None:
-                    return None
-                return float(distances[j]), np.concatenate([*stages, world[1 : j + 1]])
-        if k < len(distances) - 1:
-            break
-        stages.append(world[1:])
-    return None
