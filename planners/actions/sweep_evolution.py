@@ -13,6 +13,7 @@ under each set (a sweep in two strokes, `planners.actions.sweep`).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,10 +79,36 @@ def _kept(
     return evolution
 
 
-def _start(frame: Frame2D, in_frame: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+def _start(frame: Frame2D, in_frame: np.ndarray, region: SweepRegion) -> np.ndarray:
     """nu_o's first stage, (1, P*N, 3) world poses: every sample under every parameter set."""
-    rows = in_frame if in_frame.ndim == 3 else np.tile(in_frame, (len(chosen), 1, 1))
+    sets = len(extreme_parameters(region.mus, region.cs))
+    rows = in_frame if in_frame.ndim == 3 else np.tile(in_frame, (sets, 1, 1))
     return frame.moving_to_world(rows[None], np.zeros(1))
+
+
+def _chunks(
+    ctx: PlanningContext,
+    name: str,
+    region: SweepRegion,
+    frame: Frame2D,
+    in_frame: np.ndarray,
+    limit: float,
+    step: float,
+) -> Iterator[tuple[np.ndarray, np.ndarray, int]]:
+    """The evolution's chunks up to ``limit``, each simulated the first time anyone asks for
+    it: its distances, world poses and the index of its last stage within the limit (a chunk
+    kept from a longer sweep may run past this one's limit)."""
+    chosen = extreme_parameters(region.mus, region.cs)
+    evolution = _kept(ctx, name, frame, in_frame, step)
+    i = 0
+    while i < len(evolution.chunks) or evolution.advanced < limit - 1e-9:
+        ctx.check_budget()
+        distances, world = evolution.chunk(i, region, frame, step, limit, chosen)
+        i += 1
+        k = int(np.searchsorted(distances, limit + 1e-9)) - 1
+        yield distances, world, k
+        if k < len(distances) - 1:
+            return
 
 
 def evolved(
@@ -93,18 +120,9 @@ def evolved(
     distance: float,
 ) -> np.ndarray:
     """nu_o of a sweep of ``distance`` (a multiple of NU_SPACING), stages (S, P*N, 3)."""
-    chosen = extreme_parameters(region.mus, region.cs)
-    evolution = _kept(ctx, name, frame, in_frame, NU_STEP)
-    stages = [_start(frame, in_frame, chosen)]
-    i = 0
-    while i < len(evolution.chunks) or evolution.advanced < distance - 1e-9:
-        ctx.check_budget()
-        distances, world = evolution.chunk(i, region, frame, NU_STEP, distance, chosen)
-        i += 1
-        k = int(np.searchsorted(distances, distance + 1e-9)) - 1
+    stages = [_start(frame, in_frame, region)]
+    for _, world, k in _chunks(ctx, name, region, frame, in_frame, distance, NU_STEP):
         stages.append(world[1 : k + 1])
-        if k < len(distances) - 1:
-            break
     return np.concatenate(stages)
 
 
@@ -172,17 +190,9 @@ def sweep_until(
     The evolution is simulated a chunk at a time and stops as soon as G is reached; its
     chunks are kept for the next goal that asks for the same sweep. G is tested from
     ``check_from`` on (a pilot run tells roughly where it is reached)."""
-    chosen = extreme_parameters(region.mus, region.cs)
-    evolution = _kept(ctx, name, frame, in_frame, step)
-    stages = [_start(frame, in_frame, chosen)]
+    stages = [_start(frame, in_frame, region)]
     hold = region.holds_until(in_frame.reshape(-1, 3))
-    i = 0
-    while i < len(evolution.chunks) or evolution.advanced < limit - 1e-9:
-        ctx.check_budget()
-        distances, world = evolution.chunk(i, region, frame, step, limit, chosen)
-        i += 1
-        # A chunk kept from a longer sweep may run past this one's limit.
-        k = int(np.searchsorted(distances, limit + 1e-9)) - 1
+    for distances, world, k in _chunks(ctx, name, region, frame, in_frame, limit, step):
         if k < 1:
             break
         if distances[k] >= check_from:
