@@ -154,3 +154,29 @@ def test_two_strokes_in_pybullet_leave_the_box_where_nu_says() -> None:
         end = info["true_object_poses"][0]
         assert not Volume.of_object("box", spec, end[None], TABLE.top_z).intersects(goal.ngr)
         assert np.min(np.linalg.norm(final[:, :2] - end[:2], axis=1)) < 0.01
+
+
+def test_every_one_stroke_sweep_comes_before_any_in_two() -> None:
+    """`sweep` offers its sweeps in one stroke in every direction first, so that a plan one
+    stroke serves is found as before; two strokes follow only if the search goes on."""
+    ctx, arm, goal = _box()
+    found = [o for o in sweep_action.sweep(ctx, arm, "box", goal, Volume())]
+    two = ["first_stroke_m" in o.details for o in found if isinstance(o, ActionResult)]
+    assert True in two and False in two
+    assert two == sorted(two)  # every one-stroke sweep (False) before the first in two
+
+
+def test_no_two_strokes_where_the_straight_way_out_meets_avoid() -> None:
+    """A post where the box's detected pose would pass, shifted straight out of the NGR, rules
+    the direction's two strokes out before any is planned."""
+    ctx, arm, goal = _box()
+    guesses: dict[tuple[float, int], float | None] = {}
+    list(sweep_action._sweep_at(ctx, arm, "box", goal, Volume(), *DIRECTION, guesses))
+    post = Volume.of_box("post", np.array([0.75, 0.1, TABLE.top_z + 0.1]), (0.04, 0.04, 0.2), 0.0)
+    outcomes = list(
+        sweep_action._two_strokes_at(ctx, arm, "box", goal, post, *DIRECTION, guesses[DIRECTION])
+    )
+    assert [o.reason for o in outcomes if isinstance(o, Failure)] == [
+        sweep_action.STRAIGHT_INTO_AVOID
+    ]
+    assert not ctx.first_strokes
