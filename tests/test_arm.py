@@ -9,7 +9,8 @@ import pytest
 
 from clutter_gym.model.arm_geometry import ArmGeometry
 from clutter_gym.model.collision import RobotCollision, Volume, interpolate
-from clutter_gym.model.herb import RIGHT_ARM_START, HandCommand
+from clutter_gym.model.herb import HAND_TCP_OFFSET, RIGHT_ARM_START, HandCommand
+from clutter_gym.model.objects import get_object
 from clutter_gym.model.reachability import hand_pose
 from clutter_gym.model.world import SHELF, TABLE, Surface
 from planners.actions.arm import (
@@ -412,3 +413,28 @@ def test_goto_comes_nearer_where_no_path_keeps_its_clearance(
     path, reason = arm.goto(line[0], line[-1], block, HAND)
     assert path is not None, reason
     assert all(arm.free_check(block, HAND)(q) for q in interpolate(path, ARM_CHECK_STEP))
+
+
+def test_a_line_whose_end_has_the_hand_in_an_object_is_refused_before_any_waypoint() -> None:
+    """The hand's links are rigid with the TCP, so a line ending with them in an object fails
+    at its last waypoint whatever the arm does on the way: `Arm.straight` asks that one check
+    first (a carry to a placement beside a neighbour, a pull into the front strip)."""
+    arm = make_arm(TABLE)
+    start, end = push_line(TABLE, 0.8, -0.4, -45.0)
+    clear = arm.free_check(Volume(), HAND)
+    q0 = arm.solve(start, clear)
+    assert q0 is not None
+    can = get_object("soda_can")
+    palm = end[:2, 3] - HAND_TCP_OFFSET * end[:2, 2]  # the can where the palm ends
+    at_end = Volume.of_object("can", can, np.array([[*palm, 0.0]]), TABLE.top_z)
+    blocked = arm.free_check(at_end, HAND)
+    assert not blocked.hand_clear(end)
+    before = arm.stats.collision_checks
+    assert arm.straight(q0, end, blocked) is None
+    assert arm.stats.collision_checks == before + 1
+    # The same line walked waypoint by waypoint fails too (the check changes no answer)...
+    assert arm.kinematics.cartesian_path(q0, end, 8, accept=blocked) is None
+    # ...and a line whose end is clear is walked: many checks, a path to the end.
+    before = arm.stats.collision_checks
+    path = arm.straight(q0, end, clear)
+    assert path is not None and arm.stats.collision_checks > before + 2

@@ -176,10 +176,13 @@ def _carry(
     free = arm.free_check(avoid, closed)
     place_xy = moved.end_xy + shift
     heading, z = moved.heading, moved.z
+    put_down = hand_pose(place_xy, heading, z + PLACE_ABOVE)
+    if not free.hand_clear(put_down):  # the lowering would end there: no carry is walked
+        return None
     carry = arm.straight(lifted[-1], hand_pose(place_xy, heading, z + CARRY_LIFT), free)
     if carry is None:
         return None
-    lower = arm.straight(carry[-1], hand_pose(place_xy, heading, z + PLACE_ABOVE), free)
+    lower = arm.straight(carry[-1], put_down, free)
     if lower is None:
         return None
     carried = _carried_volume(ctx, name, in_hand, shift)
