@@ -381,6 +381,13 @@ def test_pushing_moves_no_more_objects_than_pick_and_place() -> None:
         result, _ = plan_from_detection(scene, detection, planner, settings, None, rng)
         assert result.success, (planner, result.blocked_by[:3])
         moved[planner] = result.objects_moved
+        if planner == "pick-and-place":
+            carried = result.steps[0].result
+            put_down = np.array([carried.details["place_x_m"], carried.details["place_y_m"]])
+            # Reported where the object ends (nu_o's last stage), away from where it stood.
+            np.testing.assert_allclose(put_down, carried.nu[-1][:, :2].mean(0), atol=1e-9)
+            stood = detection[[o.name for o in scene.objects].index(carried.obj), :2]
+            assert np.linalg.norm(put_down - stood) > 0.05
     assert len(moved["pushing"]) <= len(moved["pick-and-place"]) == 1
 
 

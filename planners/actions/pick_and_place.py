@@ -73,7 +73,8 @@ def place(
 ) -> ActionResult | Failure:
     """Carry the grasped obstacle to a placement in G; nu_o is the push, the object turning
     while the fingers close (`closing`) and where it is put down, every stage with one pose per
-    sample, parameter set and turn."""
+    sample, parameter set and turn. The details add where it is put down (``place_x_m``,
+    ``place_y_m``: the middle of its put-down poses), which a plan's summary otherwise omits."""
     why = unfit(ctx.beliefs[name].spec, pushed=True, lifted=True)
     if why:  # the carry lifts it: the 5 kg dumbbell is pushed only
         return Failure(name, ACTION, why)
@@ -94,7 +95,9 @@ def place(
         close = Segment("close", moved.q_end[None].copy(), closed)
         nu = np.concatenate([*through_close(moved.nu, turning, in_hand), placed[None]])
         trajectory = Trajectory((moved.push, close, Segment("lift", lifted, closed), *segments))
-        return ActionResult(ACTION, name, trajectory, nu, False, details, volume)
+        put_down = placed[:, :2].mean(axis=0)
+        where = {"place_x_m": float(put_down[0]), "place_y_m": float(put_down[1])}
+        return ActionResult(ACTION, name, trajectory, nu, False, {**details, **where}, volume)
     return Failure(name, ACTION, "no reachable placement out of the NGR")
 
 
