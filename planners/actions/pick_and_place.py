@@ -95,8 +95,8 @@ def place(
         close = Segment("close", moved.q_end[None].copy(), closed)
         nu = np.concatenate([*through_close(moved.nu, turning, in_hand), placed[None]])
         trajectory = Trajectory((moved.push, close, Segment("lift", lifted, closed), *segments))
-        put_down = placed[:, :2].mean(axis=0)
-        where = {"place_x_m": float(put_down[0]), "place_y_m": float(put_down[1])}
+        middle = placed[:, :2].mean(axis=0)
+        where = {"place_x_m": float(middle[0]), "place_y_m": float(middle[1])}
         return ActionResult(ACTION, name, trajectory, nu, False, {**details, **where}, volume)
     return Failure(name, ACTION, "no reachable placement out of the NGR")
 
